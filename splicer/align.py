@@ -1,0 +1,177 @@
+"""The two alignment passes and their composition (ALGORITHM.md sections 4-5).
+
+Sequences: the body markers (``n`` frames at the body rate) and the hands markers brought
+to the body rate (``m`` frames).  Paths are (K, 2) arrays of (body frame, hands frame)
+at that common rate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+
+from .dtw import Band, Constraint, DTWResult, dtw, make_band
+from .markers import Markers
+from .metrics import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
+from .timewarp import sample_linear
+
+__all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose"]
+
+
+@dataclass(frozen=True, eq=False)
+class PassResult:
+    """One DTW pass.
+
+    Attributes
+    ----------
+    path : np.ndarray [shape=(K, 2), dtype=int64]
+        (body frame, second-sequence frame) pairs, monotone.
+    cost : float
+        Total local cost along the path (D1: squared sign differences; D2: radians).
+    band : Band
+        The admissible region, for plotting.
+    name : str
+    """
+
+    path: np.ndarray
+    cost: float
+    band: Band
+    name: str
+
+
+def resample_markers(markers: Markers, fps: float) -> Markers:
+    """Markers brought to ``fps`` frames per second (linear in time; Gaussian anti-aliasing when
+    the rate goes down).  Frame ``k`` of the result is at ``k / fps`` seconds."""
+    if abs(fps - markers.fps) < 1e-9 * fps:
+        return markers
+    ratio = markers.fps / fps  # source frames per target frame
+    pts, sh, hd = markers.points, markers.shoulder, markers.heading
+    if ratio > 1:
+        sigma = 0.5 * ratio
+        pts = gaussian_filter1d(pts, sigma, axis=0, mode="nearest")
+        sh = gaussian_filter1d(sh, sigma, axis=0, mode="nearest")
+        hd = gaussian_filter1d(hd, sigma, axis=0, mode="nearest")
+    m = int(np.floor((markers.n_frames - 1) / ratio + 1e-9)) + 1
+    frames = np.arange(m) * ratio
+    return Markers(sample_linear(pts, frames), sample_linear(sh, frames), sample_linear(hd, frames),
+                   markers.up, fps, markers.side)
+
+
+def _run(cost, band: Band) -> DTWResult:
+    return dtw(lambda i0, i1: cost(band, i0, i1), band)
+
+
+def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = 0.1,
+          dead_zone: float = 0.1, theta: str = "window") -> PassResult:
+    """Pass 1: banded DTW with the phase metric D1.
+
+    Parameters
+    ----------
+    body, hands : Markers
+        One side's markers, at the same frame rate (see :func:`resample_markers`).
+    width : float
+        Band width W in body frames.
+    constraints : sequence of Constraint
+        In the frames of these two sequences.
+    smooth_s, dead_zone, theta
+        See :func:`splicer.metrics.phase_features` and :func:`splicer.metrics.d1_cost`.
+    """
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
+    band = make_band(body.n_frames, hands.n_frames, width, constraints)
+    res = _run(d1_cost(fb, fh, theta=theta), band)
+    return PassResult(res.path, res.cost, band, "pass1")
+
+
+def path_median(path: np.ndarray, n: int) -> np.ndarray:
+    """For each first-sequence frame 0..n-1, the median of the second-sequence frames matched to it.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,), dtype=float64]
+        Non-decreasing; halves where a frame matches an even number of frames.
+    """
+    i, j = path[:, 0], path[:, 1]
+    # the frames matched to row r are contiguous along a monotone path
+    starts = np.searchsorted(i, np.arange(n), side="left")
+    ends = np.searchsorted(i, np.arange(n), side="right") - 1
+    return 0.5 * (j[starts + (ends - starts) // 2] + j[starts + (ends - starts + 1) // 2])
+
+
+def _regularised_d2(base, n_band_scale: float, weight: float):
+    """D2 plus ``weight`` radians per band-width of departure from the diagonal (the pass-1 warp)."""
+
+    def cost(band, i0, i1):
+        out = base(band, i0, i1)
+        if weight > 0:
+            rows = np.arange(i0, i1)
+            cols = band.lo[i0:i1, None] + np.arange(out.shape[1])[None, :]
+            out = out + weight * np.abs(cols - rows[:, None]) / n_band_scale
+        return out
+
+    return cost
+
+
+def pass2(body: Markers, hands_warped_points: np.ndarray, *, width: float, constraints=(),
+          diagonal_weight: float = 0.0, smooth_s: float = 0.0) -> PassResult:
+    """Pass 2: banded DTW with the palm metric D2 between the body and the pass-1-warped hands.
+
+    Parameters
+    ----------
+    body : Markers
+    hands_warped_points : np.ndarray [shape=(n, 4, 3)]
+        Hands markers sampled at the pass-1 time map, one per body frame.
+    width : float
+        Band width W in body frames (the paper: 10% of the body length).
+    constraints : sequence of Constraint
+        In (body frame, warped frame) coordinates.
+    diagonal_weight : float
+        0 is the paper's literal pass 2.  A positive weight adds that many radians per
+        band width of departure from the pass-1 warp (the diagonal here): D2 alone is
+        small next to capture noise between neighbouring frames and the path wanders.
+    smooth_s : float
+        Gaussian smoothing (seconds) of the markers before D2.
+    """
+    pb, ph = body.points, np.asarray(hands_warped_points, dtype=np.float64)
+    if smooth_s > 0:
+        s = smooth_s * body.fps
+        pb = gaussian_filter1d(pb, s, axis=0, mode="nearest")
+        ph = gaussian_filter1d(ph, s, axis=0, mode="nearest")
+    fb: PalmFeatures = palm_features(pb)
+    fh: PalmFeatures = palm_features(ph)
+    band = make_band(body.n_frames, ph.shape[0], width, constraints)
+    cost = _regularised_d2(d2_cost(fb, fh), max(width, 1.0), diagonal_weight)
+    res = _run(cost, band)
+    return PassResult(res.path, res.cost, band, "pass2")
+
+
+def compose(map1: np.ndarray, path2: np.ndarray, n: int) -> np.ndarray:
+    """Compose pass 2's path (body frame -> warped frame) with pass 1's map (warped frame -> hands frame).
+
+    Parameters
+    ----------
+    map1 : np.ndarray [shape=(n,)]
+        Hands frame (common rate) of each warped frame, non-decreasing.
+    path2 : np.ndarray [shape=(K, 2)]
+    n : int
+        Body frames.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,)]
+        Hands frame (common rate) for each body frame.
+    """
+    k = path_median(path2, n)
+    return np.interp(k, np.arange(len(map1)), map1)
+
+
+def remap_constraints(constraints, map1: np.ndarray) -> list[Constraint]:
+    """Constraints from (body, hands) frames to (body, warped) frames through pass 1's map."""
+    out = []
+    idx = np.arange(len(map1), dtype=np.float64)
+    for c in constraints:
+        k = int(round(float(np.interp(c.y, map1, idx))))
+        out.append(Constraint(c.x, k, c.tolerance))
+    return out

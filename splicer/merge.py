@@ -1,0 +1,139 @@
+"""From a DTW correspondence to hands rotations on the body timeline (ALGORITHM.md section 6).
+
+Two ways, chosen by ``merge=``:
+
+* ``"median"`` (the paper): each body frame takes the rotation median of the hands frames
+  matched to it; where consecutive body frames jump in hands time, the rotations are
+  blended (slerp) over a window around the jump.
+* ``"timemap"`` (beyond the paper): the correspondence becomes a smooth monotone time map
+  (Gaussian-smoothed per-frame median, pinned at user constraints) and the hands motion
+  is sampled at those fractional frames with slerp.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+
+from .rotations import quat_hemisphere, quat_median, quat_slerp
+from .timewarp import sample_rotations
+
+__all__ = ["smooth_time_map", "median_rotations", "blend_jumps", "pin_constraints"]
+
+
+def pin_constraints(time_map: np.ndarray, pins) -> np.ndarray:
+    """Shift a time map so it honours ``pins`` = [(body frame, hands frame, tolerance)].
+
+    A piecewise-linear correction, zero at both ends and at pins already within tolerance,
+    moves each violating pin to the nearest edge of its window; the result is then made
+    non-decreasing.  Frames in hands-frame units.
+    """
+    tm = np.array(time_map, dtype=np.float64)
+    n = len(tm)
+    if not pins:
+        return tm
+    xs, ds = [0], [0.0]
+    for x, y, t in sorted(pins):
+        v = tm[x]
+        d = 0.0
+        if v < y - t:
+            d = (y - t) - v
+        elif v > y + t:
+            d = (y + t) - v
+        xs.append(x)
+        ds.append(d)
+    xs.append(n - 1)
+    ds.append(0.0)
+    tm = tm + np.interp(np.arange(n), xs, ds)
+    tm = np.maximum.accumulate(tm)
+    for x, y, t in pins:  # exact at T = 0 even after the monotone fix-up
+        if t == 0:
+            tm[x] = y
+    return np.maximum.accumulate(tm)
+
+
+def smooth_time_map(per_frame: np.ndarray, *, sigma_frames: float, last: float, pins=()) -> np.ndarray:
+    """Smooth monotone time map from a per-body-frame median of matched hands frames.
+
+    Parameters
+    ----------
+    per_frame : np.ndarray [shape=(n,)]
+        Non-decreasing hands frame per body frame.
+    sigma_frames : float
+        Gaussian standard deviation, body frames.
+    last : float
+        Last valid hands frame (the map is clipped to [0, last]).
+    pins : sequence of (int, float, float)
+        (body frame, hands frame, tolerance) to honour.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,)], non-decreasing
+    """
+    tm = np.asarray(per_frame, dtype=np.float64)
+    if sigma_frames > 0 and len(tm) > 1:
+        # pad by reflection through the end points so the ends keep their slope
+        pad = int(np.ceil(4 * sigma_frames))
+        pad = min(pad, len(tm) - 1)
+        left = 2 * tm[0] - tm[1:pad + 1][::-1]
+        right = 2 * tm[-1] - tm[-pad - 1:-1][::-1]
+        ext = np.concatenate([left, tm, right])
+        tm = gaussian_filter1d(ext, sigma_frames, mode="nearest")[pad:pad + len(per_frame)]
+    tm = np.clip(np.maximum.accumulate(tm), 0.0, last)
+    return np.clip(pin_constraints(tm, list(pins)), 0.0, last)
+
+
+def median_rotations(q: np.ndarray, path_hands_frames: np.ndarray, rows: np.ndarray, n: int) -> np.ndarray:
+    """Rotation median over the hands frames matched to each body frame.
+
+    Parameters
+    ----------
+    q : np.ndarray [shape=(M, K, 4)]
+        Hands joint rotations (any frame rate).
+    path_hands_frames : np.ndarray [shape=(P,)]
+        Fractional hands frames (units of ``q``'s frames) along the path.
+    rows : np.ndarray [shape=(P,)]
+        Body frame of each path cell (non-decreasing, covering 0..n-1).
+    n : int
+
+    Returns
+    -------
+    np.ndarray [shape=(n, K, 4)]
+    """
+    samples = sample_rotations(q, path_hands_frames)  # (P, K, 4)
+    out = np.empty((n,) + q.shape[1:])
+    starts = np.searchsorted(rows, np.arange(n), side="left")
+    ends = np.searchsorted(rows, np.arange(n), side="right")
+    single = (ends - starts) == 1
+    out[single] = samples[starts[single]]
+    for i in np.nonzero(~single)[0]:
+        out[i] = quat_median(samples[starts[i]:ends[i]], axis=0)
+    return quat_hemisphere(out, axis=0)
+
+
+def blend_jumps(q: np.ndarray, time_map: np.ndarray, *, jump: float, window: int) -> np.ndarray:
+    """Blend rotation discontinuities over ``window`` frames each side of a jump.
+
+    Parameters
+    ----------
+    q : np.ndarray [shape=(n, K, 4)]
+        Rotations per body frame.
+    time_map : np.ndarray [shape=(n,)]
+        Hands frame per body frame.
+    jump : float
+        A step of the time map larger than this (hands frames) is a discontinuity.
+    window : int
+        Frames each side of the jump over which the rotations are slerped from the frame
+        before the window to the frame after it.
+    """
+    q = np.array(q)
+    n = len(time_map)
+    steps = np.abs(np.diff(time_map))
+    for i in np.nonzero(steps > jump)[0]:
+        a = max(i - window, 0)
+        b = min(i + 1 + window, n - 1)
+        if b - a < 2:
+            continue
+        t = (np.arange(a + 1, b) - a) / (b - a)
+        q[a + 1:b] = quat_slerp(q[a][None], q[b][None], t[:, None])
+    return q

@@ -1,0 +1,215 @@
+"""Quaternion helpers, vectorised over any leading axes.
+
+Convention: unit quaternions stored scalar first, ``(w, x, y, z)``, as float64 arrays of
+shape ``(..., 4)``.  A quaternion ``q`` maps a vector given in a joint's frame to its
+parent's frame: ``v_parent = q * v_child * conj(q)``.  Euler angles follow BVH: an order
+string such as ``"ZXY"`` lists the channels as they appear in the file and means the
+intrinsic product ``R = Rz @ Rx @ Ry``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+__all__ = [
+    "quat_from_euler",
+    "euler_from_quat",
+    "quat_mul",
+    "quat_conj",
+    "quat_rotate",
+    "quat_to_matrix",
+    "quat_from_matrix",
+    "quat_normalize",
+    "quat_hemisphere",
+    "quat_slerp",
+    "quat_angle",
+    "quat_median",
+    "quat_between",
+    "yaw_quat",
+]
+
+
+def _flat(q: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
+    q = np.asarray(q, dtype=np.float64)
+    return q.reshape(-1, q.shape[-1]), q.shape[:-1]
+
+
+def quat_from_euler(angles_deg: np.ndarray, order: str) -> np.ndarray:
+    """Quaternions from intrinsic Euler angles in degrees.
+
+    Parameters
+    ----------
+    angles_deg : np.ndarray [shape=(..., 3)]
+        Angles in degrees, in the order of ``order``.
+    order : str
+        Three axis letters, e.g. ``"ZXY"`` (BVH channel order).
+
+    Returns
+    -------
+    np.ndarray [shape=(..., 4), dtype=float64]
+        ``(w, x, y, z)`` quaternions.
+    """
+    a, lead = _flat(angles_deg)
+    if a.shape[0] == 0:
+        return np.zeros(lead + (4,))
+    q = Rotation.from_euler(order.upper(), a, degrees=True).as_quat(scalar_first=True)
+    return q.reshape(lead + (4,))
+
+
+def euler_from_quat(q: np.ndarray, order: str) -> np.ndarray:
+    """Intrinsic Euler angles (degrees, in ``order``) of quaternions ``(..., 4)``."""
+    f, lead = _flat(q)
+    if f.shape[0] == 0:
+        return np.zeros(lead + (3,))
+    e = Rotation.from_quat(f, scalar_first=True).as_euler(order.upper(), degrees=True, suppress_warnings=True)
+    return e.reshape(lead + (3,))
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product ``a * b`` (apply ``b`` first, then ``a``)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
+
+
+def quat_conj(q: np.ndarray) -> np.ndarray:
+    """Conjugate (the inverse of a unit quaternion)."""
+    q = np.asarray(q, dtype=np.float64)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)`` (broadcasting)."""
+    q = np.asarray(q, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    w = q[..., :1]
+    u = q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)``."""
+    q = np.asarray(q, dtype=np.float64)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    m = np.empty(q.shape[:-1] + (3, 3))
+    m[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    m[..., 0, 1] = 2 * (x * y - w * z)
+    m[..., 0, 2] = 2 * (x * z + w * y)
+    m[..., 1, 0] = 2 * (x * y + w * z)
+    m[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    m[..., 1, 2] = 2 * (y * z - w * x)
+    m[..., 2, 0] = 2 * (x * z - w * y)
+    m[..., 2, 1] = 2 * (y * z + w * x)
+    m[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return m
+
+
+def quat_from_matrix(m: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(..., 4)`` of rotation matrices ``(..., 3, 3)``."""
+    m = np.asarray(m, dtype=np.float64)
+    lead = m.shape[:-2]
+    if int(np.prod(lead)) == 0:
+        return np.zeros(lead + (4,))
+    q = Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat(scalar_first=True)
+    return q.reshape(lead + (4,))
+
+
+def quat_normalize(q: np.ndarray) -> np.ndarray:
+    """Scale quaternions to unit length."""
+    q = np.asarray(q, dtype=np.float64)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def quat_hemisphere(q: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Flip signs along ``axis`` so consecutive quaternions have a non-negative dot product.
+
+    ``q`` and ``-q`` are the same rotation; interpolation and averaging need a consistent
+    choice.  ``axis`` is the time axis.
+    """
+    q = np.moveaxis(np.array(q, dtype=np.float64), axis, 0)
+    if q.shape[0] > 1:
+        dots = np.sum(q[1:] * q[:-1], axis=-1)
+        flips = np.cumprod(np.where(dots < 0, -1.0, 1.0), axis=0)
+        q[1:] *= flips[..., None]
+    return np.moveaxis(q, 0, axis)
+
+
+def quat_slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Spherical linear interpolation from ``a`` (t=0) to ``b`` (t=1), shortest arc.
+
+    ``t`` broadcasts against ``a[..., 0]``.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    t = np.asarray(t, dtype=np.float64)[..., None]
+    dot = np.sum(a * b, axis=-1, keepdims=True)
+    b = np.where(dot < 0, -b, b)
+    dot = np.abs(dot)
+    close = dot > 0.9995
+    theta = np.arccos(np.clip(dot, -1.0, 1.0))
+    s = np.sin(theta)
+    s = np.where(close, 1.0, s)
+    wa = np.where(close, 1.0 - t, np.sin((1.0 - t) * theta) / s)
+    wb = np.where(close, t, np.sin(t * theta) / s)
+    return quat_normalize(wa * a + wb * b)
+
+
+def quat_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Geodesic angle between rotations, in degrees, in [0, 180]."""
+    dot = np.abs(np.sum(np.asarray(a, dtype=np.float64) * np.asarray(b, dtype=np.float64), axis=-1))
+    return np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
+
+
+def quat_median(q: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Rotation median: component-wise median of hemisphere-aligned quaternions, renormalised.
+
+    Quaternions are aligned to the hemisphere of the first element along ``axis``.
+    """
+    q = np.moveaxis(np.asarray(q, dtype=np.float64), axis, 0)
+    ref = q[0]
+    sign = np.where(np.sum(q * ref, axis=-1, keepdims=True) < 0, -1.0, 1.0)
+    return quat_normalize(np.median(q * sign, axis=0))
+
+
+def quat_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Smallest rotation taking direction ``u`` onto direction ``v`` (both ``(..., 3)``).
+
+    For opposite vectors the result is a half turn about an axis perpendicular to ``u``.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    un = u / np.maximum(np.linalg.norm(u, axis=-1, keepdims=True), 1e-300)
+    vn = v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+    w = 1.0 + np.sum(un * vn, axis=-1, keepdims=True)
+    xyz = np.cross(un, vn)
+    q = np.concatenate([w, xyz], axis=-1)
+    opposite = (w[..., 0] < 1e-9)
+    if np.any(opposite):
+        # any axis perpendicular to u
+        alt = np.where(np.abs(un[..., :1]) < 0.9, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
+        perp = np.cross(un, alt)
+        perp /= np.linalg.norm(perp, axis=-1, keepdims=True)
+        half = np.concatenate([np.zeros(perp.shape[:-1] + (1,)), perp], axis=-1)
+        q = np.where(opposite[..., None], half, q)
+    return quat_normalize(q)
+
+
+def yaw_quat(angle_rad: np.ndarray, up: int) -> np.ndarray:
+    """Rotations by ``angle_rad`` (radians) about the coordinate axis ``up`` (0=X, 1=Y, 2=Z)."""
+    a = np.asarray(angle_rad, dtype=np.float64)
+    q = np.zeros(a.shape + (4,))
+    q[..., 0] = np.cos(a / 2)
+    q[..., 1 + up] = np.sin(a / 2)
+    return q

@@ -1,0 +1,205 @@
+"""Drive the body's finger joints with the hands capture (ALGORITHM.md section 7).
+
+Finger joints are paired by role (finger and segment from the base) across naming
+conventions.  Hands joints that sit at the same place as their parent (two-axis knuckles
+such as ``THUMB_CMC_FE`` + ``THUMB_CMC_AA``) are merged into one segment by composing
+their rotations.  When the two skeletons' rest hands point along different axes (a Leap
+hand along -Z, a Mixamo hand along +X), rotations are carried over through the rotation
+``C`` that takes the hands' rest hand frame onto the body's: ``q_body = C q_hands C^-1``
+(BVH rest poses have every joint frame aligned with the world axes, so one ``C`` per hand
+serves every finger joint).  When the body has no finger joints, the hands' finger
+subtree is grafted under the body's wrist.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kinematics import rest_positions
+from .model import Motion, Skeleton
+from .roles import FINGERS, ArmRoles
+from .rotations import quat_conj, quat_from_matrix, quat_mul, quat_angle
+
+__all__ = ["FingerMap", "finger_map", "hand_frame", "graft_fingers"]
+
+
+@dataclass(frozen=True)
+class FingerMap:
+    """Which hands joints drive which body joints, for one side.
+
+    Attributes
+    ----------
+    body : tuple of int
+        Body joints that receive a rotation.
+    hands : tuple of tuple of int
+        For each body joint, the hands joints whose local rotations are composed (parent first).
+    conj : np.ndarray [shape=(4,)]
+        ``C``: rotation taking the hands' rest hand frame onto the body's.
+    """
+
+    body: tuple[int, ...]
+    hands: tuple[tuple[int, ...], ...]
+    conj: np.ndarray
+
+
+def _segments(sk: Skeleton, chain: tuple[int, ...], rest: np.ndarray) -> list[tuple[int, ...]]:
+    """Group a finger chain into segments, merging joints placed at their parent's position."""
+    scale = max(float(np.ptp(rest, axis=0).max()), 1e-9)
+    segs: list[list[int]] = []
+    for j in chain:
+        if segs and np.linalg.norm(sk.offsets[j]) < 1e-6 * scale:
+            segs[-1].append(j)
+        else:
+            segs.append([j])
+    return [tuple(s) for s in segs]
+
+
+def hand_frame(sk: Skeleton, arm: ArmRoles) -> np.ndarray:
+    """Rest-pose hand frame (3x3, columns: long axis, radial axis, palm normal) in world axes."""
+    rest = rest_positions(sk)
+    bases = {f: rest[c[0]] for f, c in arm.fingers.items() if c}
+    w = rest[arm.wrist]
+    tip = bases.get("middle", np.mean(list(bases.values()), axis=0) if bases else w)
+    u = tip - w
+    radial = bases.get("index", bases.get("thumb"))
+    ulnar = bases.get("pinky", bases.get("ring"))
+    v = (radial - ulnar) if radial is not None and ulnar is not None else None
+    if v is None or np.linalg.norm(np.cross(u, v)) < 1e-9:
+        # no across-the-palm axis: use any axis perpendicular to u
+        v = np.cross(u, [0.0, 1.0, 0.0] if abs(u[1]) < 0.9 * np.linalg.norm(u) else [1.0, 0.0, 0.0])
+    u = u / np.linalg.norm(u)
+    v = v - u * np.dot(u, v)
+    v = v / np.linalg.norm(v)
+    return np.stack([u, v, np.cross(u, v)], axis=1)
+
+
+def finger_map(body_sk: Skeleton, body_arm: ArmRoles, hands_sk: Skeleton, hands_arm: ArmRoles) -> FingerMap:
+    """Pair the body's finger joints with the hands' by finger and segment."""
+    rb, rh = rest_positions(body_sk), rest_positions(hands_sk)
+    body_joints: list[int] = []
+    hands_groups: list[tuple[int, ...]] = []
+    for finger in FINGERS:
+        if finger not in body_arm.fingers or finger not in hands_arm.fingers:
+            continue
+        bsegs = [s[0] for s in _segments(body_sk, body_arm.fingers[finger], rb)]
+        hsegs = _segments(hands_sk, hands_arm.fingers[finger], rh)
+        for bj, hg in zip(bsegs, hsegs):
+            if len(body_sk.rotation_columns(bj)) == 3:
+                body_joints.append(bj)
+                hands_groups.append(hg)
+    C = hand_frame(body_sk, body_arm) @ hand_frame(hands_sk, hands_arm).T
+    return FingerMap(tuple(body_joints), tuple(hands_groups), quat_from_matrix(C))
+
+
+def carried_rotations(hands_q: np.ndarray, fmap: FingerMap) -> np.ndarray:
+    """Hands local rotations (T, J, 4) -> body finger rotations (T, K, 4) via ``fmap``."""
+    out = []
+    C = fmap.conj
+    identity = quat_angle(C, np.array([1.0, 0, 0, 0])) < 1e-6
+    for group in fmap.hands:
+        q = hands_q[:, group[0]]
+        for j in group[1:]:
+            q = quat_mul(q, hands_q[:, j])
+        if not identity:
+            q = quat_mul(quat_mul(C[None], q), quat_conj(C)[None])
+        out.append(q)
+    return np.stack(out, axis=1) if out else np.zeros((hands_q.shape[0], 0, 4))
+
+
+def _preorder(parents: list[int]) -> list[int]:
+    kids: dict[int, list[int]] = {}
+    for j, p in enumerate(parents):
+        kids.setdefault(p, []).append(j)
+    order: list[int] = []
+    stack = list(reversed(kids.get(-1, [])))
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(kids.get(j, [])))
+    return order
+
+
+def graft_fingers(body: Motion, body_arm: ArmRoles, hands_sk: Skeleton, hands_arm: ArmRoles,
+                  scale: float) -> tuple[Motion, ArmRoles]:
+    """Copy the hands' finger subtrees under the body's wrist.
+
+    Offsets are turned by ``C`` (hands rest hand frame -> body rest hand frame) and scaled by
+    ``scale`` (body length units per hands length unit).  New joints get the hands' rotation
+    channels (no positions) and start at identity.  Returns the new motion and the side's
+    roles on the new skeleton.
+    """
+    sk = body.skeleton
+    # C from the body's wrist axes: the body has no fingers, so take its hand frame from the
+    # forearm direction (elbow -> wrist) and the hands' frame from its own fingers
+    rb = rest_positions(sk)
+    rh = rest_positions(hands_sk)
+    Fh = hand_frame(hands_sk, hands_arm)
+    if body_arm.elbow is not None:
+        u = rb[body_arm.wrist] - rb[body_arm.elbow]
+        u /= np.linalg.norm(u)
+        # keep the hands' palm normal as close as possible
+        n = Fh[:, 2] - u * np.dot(Fh[:, 2], u)
+        n = n / np.linalg.norm(n) if np.linalg.norm(n) > 1e-9 else np.cross(u, [0, 1.0, 0])
+        Fb = np.stack([u, np.cross(n, u), n], axis=1)
+    else:
+        Fb = Fh
+    C = Fb @ Fh.T
+    sub: list[int] = []
+    for chain in hands_arm.fingers.values():
+        for j in (chain[0], *hands_sk.descendants(chain[0])):
+            if j not in sub:
+                sub.append(j)
+    sub.sort()
+    names = list(sk.names)
+    parents = list(int(p) for p in sk.parents)
+    offsets = list(sk.offsets)
+    channels = list(sk.channels)
+    ends = list(sk.end_sites)
+    new_index = {}
+    used = set(names)
+    for hj in sub:
+        name = hands_sk.names[hj]
+        base = name
+        k = 2
+        while name in used:
+            name = f"{base}_{k}"
+            k += 1
+        used.add(name)
+        hp = int(hands_sk.parents[hj])
+        new_index[hj] = len(names)
+        names.append(name)
+        parents.append(new_index.get(hp, body_arm.wrist))
+        off = hands_sk.offsets[hj]
+        if hp not in new_index:  # a finger base: its offset from the hands wrist
+            off = rh[hj] - rh[hands_arm.wrist]
+        offsets.append(scale * (C @ off))
+        rot_ch = tuple(c for c in hands_sk.channels[hj] if c.endswith("rotation")) or ("Zrotation", "Xrotation", "Yrotation")
+        channels.append(rot_ch)
+        es = hands_sk.end_sites[hj]
+        ends.append(es if np.any(np.isnan(es)) else scale * (C @ es))
+    order = _preorder(parents)
+    pos = {old: k for k, old in enumerate(order)}
+    new_sk = Skeleton(
+        tuple(names[o] for o in order),
+        np.array([pos[parents[o]] if parents[o] >= 0 else -1 for o in order]),
+        np.array([offsets[o] for o in order]),
+        tuple(channels[o] for o in order),
+        np.array([ends[o] for o in order]),
+    )
+    T = body.n_frames
+    old_off = sk.channel_offsets
+    cols = []
+    for o in order:
+        if o < sk.n_joints:
+            cols.append(body.channels[:, old_off[o]:old_off[o + 1]])
+        else:
+            cols.append(np.zeros((T, len(channels[o]))))
+    motion = Motion(new_sk, np.concatenate(cols, axis=1), body.frame_time, body.source)
+    remap = {hj: pos[new_index[hj]] for hj in sub}
+    fingers = {f: tuple(remap[j] for j in chain) for f, chain in hands_arm.fingers.items()}
+    arm = ArmRoles(body_arm.side, pos[body_arm.wrist],
+                   None if body_arm.elbow is None else pos[body_arm.elbow],
+                   None if body_arm.upper_arm is None else pos[body_arm.upper_arm], fingers)
+    return motion, arm

@@ -39,6 +39,7 @@ class PassResult:
     cost: float
     band: Band
     name: str
+    local_cost: object = None  # callable (band, i0, i1) -> band rows of local costs, for plots
 
 
 def resample_markers(markers: Markers, fps: float) -> Markers:
@@ -81,8 +82,9 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
     band = make_band(body.n_frames, hands.n_frames, width, constraints)
-    res = _run(d1_cost(fb, fh, theta=theta), band)
-    return PassResult(res.path, res.cost, band, "pass1")
+    d1 = d1_cost(fb, fh, theta=theta)
+    res = _run(d1, band)
+    return PassResult(res.path, res.cost, band, "pass1", d1)
 
 
 def path_median(path: np.ndarray, n: int) -> np.ndarray:
@@ -144,7 +146,7 @@ def pass2(body: Markers, hands_warped_points: np.ndarray, *, width: float, const
     band = make_band(body.n_frames, ph.shape[0], width, constraints)
     cost = _regularised_d2(d2_cost(fb, fh), max(width, 1.0), diagonal_weight)
     res = _run(cost, band)
-    return PassResult(res.path, res.cost, band, "pass2")
+    return PassResult(res.path, res.cost, band, "pass2", cost)
 
 
 def compose(map1: np.ndarray, path2: np.ndarray, n: int) -> np.ndarray:

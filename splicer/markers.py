@@ -70,12 +70,17 @@ class Markers:
 
 
 def root_heading(motion: Motion, up: int) -> np.ndarray:
-    """Heading of the root joint about axis ``up``, radians, unwrapped, shape (T,)."""
+    """Heading of the root joint about axis ``up``, radians, unwrapped, shape (T,).
+
+    Measured like :func:`splicer.metrics.horizontal_axes`' turns: from horizontal axis
+    ``a = (up + 1) % 3`` toward ``b = (up + 2) % 3``, so a right-handed turn of the motion by
+    ``+phi`` about ``up`` adds ``phi`` to the heading.
+    """
     rot, _ = global_transforms(motion, [0])
+    a, b = (up + 1) % 3, (up + 2) % 3
     fwd = np.zeros(3)
-    fwd[(up + 2) % 3] = 1.0  # a horizontal axis (Z for Y-up, Y for Z-up... any fixed one works for differences)
+    fwd[a] = 1.0
     v = quat_rotate(rot[:, 0], fwd)
-    a, b = (up + 2) % 3, (up + 1) % 3
     return np.unwrap(np.arctan2(v[:, b], v[:, a]))
 
 

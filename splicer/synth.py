@@ -33,7 +33,7 @@ _JOINT_CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
 _THUMB_DIR = np.array([1.0, -0.35, 0.9]) / np.linalg.norm([1.0, -0.35, 0.9])
 _FINGER_GEOMETRY = {
     #          base offset from the wrist   segment lengths (prox, mid, dist) + tip
-    "Thumb": ((2.2, -1.2, 2.0), (4.0, 3.2, 2.6)),
+    "Thumb": ((2.2, -1.5, 3.0), (4.0, 3.2, 2.6)),
     "Index": ((9.4, 0.2, 2.4), (4.3, 2.5, 2.2)),
     "Middle": ((9.7, 0.3, 0.6), (4.7, 2.9, 2.4)),
     "Ring": ((9.2, 0.1, -1.2), (4.3, 2.7, 2.3)),

@@ -1,0 +1,132 @@
+"""Pictures of an alignment: per side, each pass's local costs inside its band, the user's
+constraint windows and the chosen path (matplotlib, Agg backend, no display needed)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SplicerError
+
+__all__ = ["band_image", "plot_alignment"]
+
+_MAX_PIXELS = 700
+
+
+def band_image(pass_result, *, max_pixels: int = _MAX_PIXELS) -> tuple[np.ndarray, float, float]:
+    """Local costs of a pass on a grid of at most ``max_pixels`` per side; NaN outside the band.
+
+    Long takes are shown by sampling rows and columns (not by computing every cell again).
+
+    Returns
+    -------
+    image : np.ndarray [shape=(rows, cols)]
+    row_step, col_step : float
+        Frames per pixel along each axis.
+    """
+    band = pass_result.band
+    n, m = band.n, band.m
+    rows = np.unique(np.linspace(0, n - 1, min(n, max_pixels)).round().astype(int))
+    cols = np.unique(np.linspace(0, m - 1, min(m, max_pixels)).round().astype(int))
+    img = np.full((len(rows), len(cols)), np.nan)
+    for r, i in enumerate(rows):
+        vals = pass_result.local_cost(band, int(i), int(i) + 1)[0]
+        lo, hi = int(band.lo[i]), int(band.hi[i])
+        inside = (cols >= lo) & (cols <= hi)
+        img[r, inside] = vals[cols[inside] - lo]
+    return img, (n - 1) / max(len(rows) - 1, 1), (m - 1) / max(len(cols) - 1, 1)
+
+
+def _draw_pass(ax, pr, title, constraints=()):
+    import matplotlib.pyplot as plt  # noqa: F401
+
+    img, rs, cs = band_image(pr)
+    n, m = pr.band.n, pr.band.m
+    im = ax.imshow(img.T, origin="lower", aspect="auto", cmap="viridis", interpolation="nearest",
+                   extent=(-0.5 * rs, (n - 1) + 0.5 * rs, -0.5 * cs, (m - 1) + 0.5 * cs))
+    i = np.arange(n)
+    ax.plot(i, pr.band.lo, color="white", lw=0.6, alpha=0.8)
+    ax.plot(i, pr.band.hi, color="white", lw=0.6, alpha=0.8, label="band")
+    ax.plot(pr.path[:, 0], pr.path[:, 1], color="red", lw=1.2, label="path")
+    for c in constraints:
+        ax.errorbar([c.x], [c.y], yerr=[[c.tolerance], [c.tolerance]], fmt="o", color="orange",
+                    ms=4, capsize=3, lw=1.5)
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("body frame")
+    ax.set_xlim(0, n - 1)
+    ax.set_ylim(0, m - 1)
+    return im
+
+
+def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
+    """Write a PNG of every side's passes (atomically: a temporary file, then rename).
+
+    Parameters
+    ----------
+    result : SpliceResult
+    path : path of the PNG to write
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .align import remap_constraints
+    from .splice import _dtw_constraints
+
+    sides = list(result.sides.values())
+    if not sides:
+        raise SplicerError("nothing to plot: no side was aligned")
+    ncols = max(sum(p is not None for p in (s.pass1, s.pass2)) for s in sides) + 1
+    fig, axes = plt.subplots(len(sides), ncols, figsize=(4.2 * ncols, 3.6 * len(sides)), squeeze=False)
+    for row, s in zip(axes, sides):
+        n = len(s.hands_frame)
+        m = s.hands_markers.n_frames
+        cons = _dtw_constraints(s.constraints, n, m, s.rate_ratio)
+        k = 0
+        if s.pass1 is not None:
+            im = _draw_pass(row[k], s.pass1, f"{s.side}: pass 1, phase metric D1 (band {s.pass1.band.width:.0f} frames)", cons)
+            row[k].set_ylabel("hands frame (body rate)")
+            fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02)
+            k += 1
+        if s.pass2 is not None:
+            map1 = None if s.pass1 is None else _median(s.pass1.path, n)
+            c2 = cons if map1 is None else remap_constraints(cons, map1)
+            im = _draw_pass(row[k], s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2)
+            row[k].set_ylabel("warped hands frame" if s.pass1 is not None else "hands frame (body rate)")
+            fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02)
+            k += 1
+        ax = row[k]
+        t = np.arange(n)
+        ax.plot(t, s.hands_frame, color="black", lw=1.2, label="hands frame used")
+        ax.plot(t, t * (len(s.hands_frame) and s.rate_ratio), color="gray", lw=0.8, ls="--", label="uniform rate")
+        for c in s.constraints:
+            ax.errorbar([c["body"]], [c["hands"]], yerr=[[c["tolerance"]], [c["tolerance"]]], fmt="o", color="orange", ms=4, capsize=3)
+        ax.set_title(f"{s.side}: time map", fontsize=9)
+        ax.set_xlabel("body frame")
+        ax.set_ylabel("hands-file frame")
+        ax.legend(fontsize=7, loc="upper left")
+        for extra in row[k + 1:]:
+            extra.axis("off")
+    fig.tight_layout()
+    dest = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".png", dir=dest.parent if str(dest.parent) else ".")
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=dpi, format="png")
+        os.replace(tmp, dest)
+    except OSError as e:
+        raise SplicerError(f"{dest}: cannot write the plot ({e.strerror or e})") from None
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _median(path, n):
+    from .align import path_median
+
+    return path_median(path, n)

@@ -296,11 +296,14 @@ def _disconnected_row(n, m, width, cons):
     return None
 
 
+def _WIDEST(n, m):
+    # Delta >= W / 2 >= n + m: every column within the tolerance clips is admissible
+    return 2.0 * (n + m) + 2.0
+
+
 def _min_width(n, m, width, cons):
     """Smallest W (to float precision) for which the band connects, by bisection."""
-    a, b = float(width), 2.0 * (n + m) + 2.0       # a fails, b always works
-    while _disconnected_row(n, m, b, cons) is not None:  # pragma: no cover - safety
-        b *= 2.0
+    a, b = float(width), _WIDEST(n, m)             # a fails, b works (checked by caller)
     for _ in range(200):
         mid = 0.5 * (a + b)
         if mid <= a or mid >= b:
@@ -352,6 +355,16 @@ def make_band(n: int, m: int, width: float, constraints=()) -> Band:
         raise BandError(f"band width must be positive and finite, got {width!r} frames")
     cons = _as_constraints(constraints, n, m)
     bad = _disconnected_row(n, m, width, cons)
+    if bad is not None and _disconnected_row(n, m, _WIDEST(n, m), cons) is not None:
+        # no width helps: two constraints on adjacent body frames too far apart in y
+        for k in range(1, len(cons)):
+            p, c = cons[k - 1], cons[k]
+            if c.x == p.x + 1 and (c.y - c.tolerance) - (p.y + p.tolerance) > 1:
+                raise ConstraintError(
+                    f"constraints #{k - 1} (x={p.x}, y={p.y}, T={p.tolerance}) and #{k} "
+                    f"(x={c.x}, y={c.y}, T={c.tolerance}) are infeasible: adjacent body frames "
+                    f"cannot match hands frames more than T + T' + 1 apart")
+        raise ConstraintError("the constraints cannot be satisfied by any band width")  # pragma: no cover
     if bad is not None:
         wmin = _min_width(n, m, width, cons)
         xs = [c.x for c in cons]

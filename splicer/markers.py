@@ -26,6 +26,7 @@ from .rotations import quat_rotate
 __all__ = ["Markers", "arm_markers", "root_heading"]
 
 _FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
+_HAND_PER_FOREARM = 0.4  # wrist -> knuckles in forearm lengths, for bodies without finger joints
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,10 +107,10 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
     """
     sk = motion.skeleton
     bases = {f: chain[0] for f, chain in arm.fingers.items() if chain}
-    if not bases:
+    if not bases and arm.elbow is None:
         raise RoleError(
-            f"{motion.source or 'motion'}: the {arm.side} hand ({sk.names[arm.wrist]}) has no finger joints; "
-            "the hand markers need at least one finger base"
+            f"{motion.source or 'motion'}: the {arm.side} hand ({sk.names[arm.wrist]}) has neither finger joints "
+            "nor a forearm joint; the hand markers need one of them"
         )
     extra = [j for j in (arm.elbow, arm.upper_arm) if j is not None]
     base_list = list(bases.values())
@@ -117,6 +118,14 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
     grot, gpos = global_transforms(motion, joints)
     w = gpos[:, 0]
     bpos = {f: gpos[:, 1 + len(extra) + k] for k, f in enumerate(bases)}
+    if not bpos:
+        # a body without finger joints: the hand continues the forearm at rest (or reaches the
+        # wrist's End Site), turned with the wrist
+        rest = rest_positions(sk)
+        tip = sk.end_sites[arm.wrist]
+        if np.any(np.isnan(tip)):
+            tip = _HAND_PER_FOREARM * (rest[arm.wrist] - rest[arm.elbow])
+        bpos["hand"] = w + quat_rotate(grot[:, 0], tip)
 
     # hand marker
     if "middle" in bpos or "hand" in bpos:
@@ -145,7 +154,7 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
         # turned with the forearm joint when there is one (Leap: rForeArm at the wrist) or
         # with the wrist (wrist-rooted files).  At rest every joint frame is the world frame.
         rest = rest_positions(sk)
-        mid_base = bases.get("middle", base_list[0])
+        mid_base = bases.get("middle", base_list[0] if base_list else arm.wrist)
         hand_vec = rest[mid_base] - rest[arm.wrist]
         back = -_FOREARM_PER_HAND * hand_vec
         parent = int(sk.parents[arm.wrist])

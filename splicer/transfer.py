@@ -20,7 +20,7 @@ import numpy as np
 from .kinematics import rest_positions
 from .model import Motion, Skeleton
 from .roles import FINGERS, ArmRoles
-from .rotations import quat_conj, quat_from_matrix, quat_mul, quat_angle
+from .rotations import quat_angle, quat_between, quat_conj, quat_from_matrix, quat_mul, quat_to_matrix
 
 __all__ = ["FingerMap", "finger_map", "hand_frame", "graft_fingers"]
 
@@ -131,21 +131,19 @@ def graft_fingers(body: Motion, body_arm: ArmRoles, hands_sk: Skeleton, hands_ar
     roles on the new skeleton.
     """
     sk = body.skeleton
-    # C from the body's wrist axes: the body has no fingers, so take its hand frame from the
-    # forearm direction (elbow -> wrist) and the hands' frame from its own fingers
+    # C: the smallest rotation taking the hands' forearm direction at rest onto the body's
+    # (identity when both files follow the same axis convention); a wrist-rooted hands file
+    # has no forearm, and its hand's long axis stands in for it
     rb = rest_positions(sk)
     rh = rest_positions(hands_sk)
-    Fh = hand_frame(hands_sk, hands_arm)
-    if body_arm.elbow is not None:
-        u = rb[body_arm.wrist] - rb[body_arm.elbow]
-        u /= np.linalg.norm(u)
-        # keep the hands' palm normal as close as possible
-        n = Fh[:, 2] - u * np.dot(Fh[:, 2], u)
-        n = n / np.linalg.norm(n) if np.linalg.norm(n) > 1e-9 else np.cross(u, [0, 1.0, 0])
-        Fb = np.stack([u, np.cross(n, u), n], axis=1)
+    if hands_arm.elbow is not None:
+        u_h = rh[hands_arm.wrist] - rh[hands_arm.elbow]
     else:
-        Fb = Fh
-    C = Fb @ Fh.T
+        u_h = hand_frame(hands_sk, hands_arm)[:, 0]
+    if body_arm.elbow is not None and np.linalg.norm(u_h) > 0:
+        C = quat_to_matrix(quat_between(u_h, rb[body_arm.wrist] - rb[body_arm.elbow]))
+    else:
+        C = np.eye(3)
     sub: list[int] = []
     for chain in hands_arm.fingers.values():
         for j in (chain[0], *hands_sk.descendants(chain[0])):

@@ -1,0 +1,358 @@
+"""The evaluation protocol of ALGORITHM.md section 8, and the ``splicer-evaluate`` command.
+
+From real full-body takes with moving fingers, :func:`splicer.separate.separate` makes
+(body, hands, truth) triples; every method aligns the hands to the body and is scored:
+
+* alignment error, body frames: the hands frame a method uses for body frame ``i`` is mapped
+  back to body time through the inverse of the truth (``np.interp(hf, truth, arange(n))``)
+  and ``i`` subtracted; mean and worst ``|error|`` over both sides' frames, and the share of
+  frames within 1 and 3 frames;
+* finger error, degrees: geodesic angle between the result's local finger rotations and the
+  original take's, mean over the moving finger joints (:func:`~splicer.separate.moving_finger_joints`)
+  and frames;
+* time per stage, seconds (markers, alignment, merge, total; both sides).
+
+Methods: the oracle (hands sampled at the true times), no alignment (fingers flat), uniform
+time scaling, a generic DTW (:mod:`splicer.baselines`), and :func:`splicer.splice.splice`
+with pass 1 alone, the literal D2 pass alone, pass 1 + the paper's literal pass 2
+(``pass2_weight=0``), and the full method with the median merge and with the smooth time map.
+Baselines that do not go through ``splice`` sample the hands' finger rotations at their
+frames by slerp, as the splice's time-map merge does.
+
+The table has one row per method; each metric is the mean over runs (take x seed) with the
+worst run beside it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .baselines import flat_rotations, generic_dtw_frames, oracle_frames, uniform_frames
+from .errors import SplicerError
+from .model import Motion
+from .roles import find_roles
+from .rotations import quat_angle
+from .separate import moving_finger_joints, separate
+from .splice import splice
+from .timewarp import sample_rotations
+
+__all__ = ["SeparationParams", "METHODS", "METRICS", "evaluate_pair", "evaluate", "summarize",
+           "to_markdown", "default_takes", "main"]
+
+#: Splice options of each splice-based method.
+SPLICE_METHODS = {
+    "pass 1 alone": {"passes": "pass1"},
+    "pass 2 alone (literal D2)": {"passes": "pass2"},
+    "pass 1 + literal pass 2": {"passes": "both", "pass2_weight": 0.0},
+    "full, median merge": {"passes": "both", "merge": "median"},
+    "full, smooth time map": {"passes": "both", "merge": "timemap"},
+}
+METHODS = ("oracle", "no alignment", "uniform scaling", "generic DTW") + tuple(SPLICE_METHODS)
+
+#: metric -> (column label, which run is the worst: "max" or "min")
+METRICS = {
+    "align_mean": ("align mean (frames)", "max"),
+    "align_max": ("align max (frames)", "max"),
+    "within_1": ("within 1 frame (%)", "min"),
+    "within_3": ("within 3 frames (%)", "min"),
+    "finger_deg": ("finger error (deg)", "max"),
+    "t_markers": ("markers (s)", "max"),
+    "t_align": ("alignment (s)", "max"),
+    "t_merge": ("merge (s)", "max"),
+    "t_total": ("total (s)", "max"),
+}
+
+#: Where the real takes live, relative to the repository (never copied into it).
+SHARED_ZEGGS = Path(__file__).resolve().parents[1].parent / "shared" / "motions" / "zeggs"
+
+
+@dataclass(frozen=True)
+class SeparationParams:
+    """Options of :func:`splicer.separate.separate`, with the values of ALGORITHM.md section 8.
+
+    ``rate_ratio`` is hands frames per second over body frames per second; the others are
+    passed through (speeds are ratios, ``amplitude`` a pull factor, ``yaw_deg`` and
+    ``noise_deg`` degrees, ``warp_sigma_s`` seconds).
+    """
+
+    rate_ratio: float = 2.0
+    warp_speed: tuple[float, float] = (0.5, 2.0)
+    amplitude: tuple[float, float] = (0.25, 0.7)
+    yaw_deg: tuple[float, float] = (25.0, 60.0)
+    noise_deg: float = 0.5
+    warp_sigma_s: float = 1.5
+
+
+def _alignment_scores(hands_frames: dict, truth: np.ndarray) -> dict:
+    n = len(truth)
+    idx = np.arange(n, dtype=np.float64)
+    err = np.concatenate([np.abs(np.interp(hf, truth, idx) - idx) for hf in hands_frames.values()])
+    return {"align_mean": float(err.mean()), "align_max": float(err.max()),
+            "within_1": 100.0 * float(np.mean(err <= 1.0)), "within_3": 100.0 * float(np.mean(err <= 3.0))}
+
+
+def _no_alignment_scores() -> dict:
+    return {"align_mean": np.nan, "align_max": np.nan, "within_1": np.nan, "within_3": np.nan}
+
+
+def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | None = None,
+                  splice_options: dict | None = None) -> list[dict]:
+    """Run and score every method on one separated take.
+
+    Parameters
+    ----------
+    take : Motion
+        The original take (the reference for the finger error).
+    sep : Separation
+        From :func:`splicer.separate.separate` applied to ``take``.
+    methods : sequence of str
+        Names from :data:`METHODS`.
+    generic_window : int, optional
+        Sakoe-Chiba window of the generic DTW, body frames; full DTW when None.
+    splice_options : dict, optional
+        Extra :class:`~splicer.splice.SpliceOptions` fields applied to every splice method.
+
+    Returns
+    -------
+    list of dict
+        One record per method: ``method`` and the keys of :data:`METRICS`.
+    """
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown:
+        raise SplicerError(f"unknown method(s) {unknown}; choose from {list(METHODS)}")
+    roles = find_roles(take.skeleton, source=take.source)
+    moving = moving_finger_joints(take, roles)
+    if not moving:
+        raise SplicerError(f"{take.source or 'take'}: no finger joint moves; the protocol needs moving fingers")
+    ref = take.rotations[:, moving]
+    n = take.n_frames
+    body, hands, truth = sep.body, sep.hands, sep.truth
+    for mo in (body, hands):  # Euler -> quaternion conversion (cached) is not charged to the first method
+        mo.rotations
+    side_joints = {s: [k for k, j in enumerate(moving) if j in arm.finger_joints] for s, arm in roles.sides.items()}
+    side_joints = {s: ks for s, ks in side_joints.items() if ks}
+    records = []
+    for method in methods:
+        rec = {"method": method, "t_markers": 0.0, "t_align": 0.0, "t_merge": 0.0}
+        t_start = time.perf_counter()
+        if method in SPLICE_METHODS:
+            res = splice(body, hands, **{**(splice_options or {}), **SPLICE_METHODS[method]})
+            q = res.motion.rotations[:, moving]
+            frames = {s: r.hands_frame for s, r in res.sides.items()}
+            tm = res.report["timings_s"]
+            rec.update(t_markers=tm.get("markers", 0.0), t_align=tm.get("pass1", 0.0) + tm.get("pass2", 0.0),
+                       t_merge=tm.get("merge", 0.0))
+            rec.update(_alignment_scores(frames, truth))
+        elif method == "no alignment":
+            q = flat_rotations(n, len(moving))
+            rec.update(_no_alignment_scores())
+        else:
+            frames = {}
+            for s in side_joints:
+                t0 = time.perf_counter()
+                if method == "oracle":
+                    frames[s] = oracle_frames(truth)
+                elif method == "uniform scaling":
+                    frames[s] = uniform_frames(n, hands.n_frames)
+                else:  # generic DTW
+                    frames[s] = generic_dtw_frames(body, hands, roles.sides[s], roles.sides[s], roles.up,
+                                                   window=generic_window)
+                rec["t_align"] += time.perf_counter() - t0
+            t0 = time.perf_counter()
+            q = np.array(ref)
+            for s, ks in side_joints.items():
+                q[:, ks] = sample_rotations(hands.rotations[:, [moving[k] for k in ks]], frames[s])
+            rec["t_merge"] = time.perf_counter() - t0
+            rec.update(_alignment_scores(frames, truth))
+        rec["t_total"] = time.perf_counter() - t_start
+        rec["finger_deg"] = float(np.mean(quat_angle(q, ref)))
+        records.append(rec)
+    return records
+
+
+def evaluate(takes, *, seeds: int = 5, seed0: int = 0, params: SeparationParams | None = None,
+             methods=METHODS, generic_window: int | None = None, splice_options: dict | None = None,
+             progress=None) -> pd.DataFrame:
+    """Separate each take with ``seeds`` seeds, run every method, score it.
+
+    Parameters
+    ----------
+    takes : sequence of Motion
+        Full-body takes with moving fingers.
+    seeds : int
+        Number of seeds per take (seeds ``seed0 .. seed0 + seeds - 1``).
+    params : SeparationParams, optional
+        Separation options (ALGORITHM.md section 8 by default).
+    progress : callable, optional
+        ``progress(message: str)`` after each run.
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per (take, seed, method): ``take``, ``seed``, ``method`` and the :data:`METRICS`.
+        See :func:`summarize` for the table.
+    """
+    if seeds < 1:
+        raise SplicerError(f"seeds must be >= 1, not {seeds}")
+    p = params or SeparationParams()
+    rows = []
+    for take in takes:
+        name = Path(take.source).name if take.source else "take"
+        for seed in range(seed0, seed0 + seeds):
+            t0 = time.perf_counter()
+            sep = separate(take, rng=np.random.default_rng(seed), hands_fps=p.rate_ratio * take.fps,
+                           warp_speed=p.warp_speed, amplitude=p.amplitude, yaw_deg=p.yaw_deg,
+                           noise_deg=p.noise_deg, warp_sigma_s=p.warp_sigma_s)
+            recs = evaluate_pair(take, sep, methods=methods, generic_window=generic_window,
+                                 splice_options=splice_options)
+            for r in recs:
+                rows.append({"take": name, "seed": seed, **r})
+            if progress is not None:
+                full = {r["method"]: r for r in recs}.get("full, smooth time map")
+                extra = f", full method {full['align_mean']:.2f} frames / {full['finger_deg']:.2f} deg" if full else ""
+                progress(f"{name} seed {seed}: yaw {sep.params['yaw_deg']:+.1f} deg, {sep.hands.n_frames} hands "
+                         f"frames{extra} ({time.perf_counter() - t0:.1f} s)")
+    return pd.DataFrame(rows)
+
+
+def summarize(runs: pd.DataFrame) -> pd.DataFrame:
+    """Method x metric table: each metric's mean over runs and, beside it, the worst run.
+
+    Parameters
+    ----------
+    runs : pd.DataFrame
+        From :func:`evaluate`.
+
+    Returns
+    -------
+    pd.DataFrame
+        Index: method (in :data:`METHODS` order); columns ``<label>`` and ``<label> worst`` per metric.
+    """
+    order = [m for m in METHODS if m in set(runs["method"])]
+    g = runs.groupby("method", sort=False)
+    cols = {}
+    for key, (label, worst) in METRICS.items():
+        cols[label] = g[key].mean()
+        cols[f"{label} worst"] = g[key].max() if worst == "max" else g[key].min()
+    table = pd.DataFrame(cols).reindex(order)
+    table.index.name = "method"
+    return table
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float) and np.isnan(v):
+        return "—"
+    if isinstance(v, float):
+        return f"{v:.2f}" if abs(v) >= 0.01 or v == 0 else f"{v:.3f}"
+    return str(v)
+
+
+def to_markdown(table: pd.DataFrame) -> str:
+    """A GitHub-flavoured markdown table (no extra dependency)."""
+    head = [table.index.name or ""] + [str(c) for c in table.columns]
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] + ["---:"] * len(table.columns)) + "|"]
+    for idx, row in table.iterrows():
+        lines.append("| " + " | ".join([str(idx)] + [_fmt(v) for v in row.tolist()]) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def default_takes(paths=(), *, synthetic_seconds: float = 60.0, note=print) -> list[Motion]:
+    """Read the takes named by ``paths`` (files or folders of ``.bvh``), by default
+    ``../shared/motions/zeggs``; without any, a synthetic take (and ``note`` says so)."""
+    from .bvh import read_bvh
+    from .synth import make_gesture_take
+
+    files = []
+    for p in [Path(p) for p in paths] or [SHARED_ZEGGS]:
+        if p.is_dir():
+            files.extend(sorted(p.glob("*.bvh")))
+        elif p.is_file():
+            files.append(p)
+        elif paths:
+            raise SplicerError(f"{p}: no such file or folder")
+    if files:
+        return [read_bvh(f) for f in files]
+    note(f"no BVH found in {SHARED_ZEGGS}: using a SYNTHETIC take instead "
+         f"(make_gesture_take({synthetic_seconds:g} s, 30 fps, seed 0)) - not real capture data")
+    return [make_gesture_take(synthetic_seconds, 30.0, np.random.default_rng(0))]
+
+
+def _header(takes, runs, p: SeparationParams, generic_window) -> str:
+    names = ", ".join(f"{Path(t.source).name if t.source else 'synthetic'} ({t.n_frames} frames @ {t.fps:g} fps)"
+                      for t in takes)
+    seeds = sorted(set(runs["seed"]))
+    return (f"Takes: {names}. Seeds: {seeds[0]}..{seeds[-1]} ({len(seeds)} per take).\n"
+            f"Separation (ALGORITHM.md 8): {asdict(p)}.\n"
+            f"Generic DTW: dtaidistance, {'full' if generic_window is None else f'window {generic_window}'}; "
+            "oracle, uniform and generic DTW sample the fingers by slerp at their frames.\n"
+            "Each metric: mean over runs, worst run beside it. Alignment error in body frames; "
+            "finger error in degrees (geodesic) over moving finger joints; times in seconds for both sides.\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    d = SeparationParams()
+    p = argparse.ArgumentParser(prog="splicer-evaluate", description=(
+        "Evaluation protocol of ALGORITHM.md section 8: separate full-body takes with moving fingers into "
+        "body/hands/truth, run the splice and the baselines, print one table and write it as CSV and markdown."))
+    p.add_argument("bvh", nargs="*", help=f"BVH files or folders (default: {SHARED_ZEGGS}; "
+                   "a synthetic take when absent)")
+    p.add_argument("--seeds", type=int, default=5, help="seeds per take (default 5)")
+    p.add_argument("--seed0", type=int, default=0, help="first seed (default 0)")
+    p.add_argument("--out", default=None, help="write OUT.csv and OUT.md (e.g. benchmarks/results_accuracy)")
+    p.add_argument("--rate-ratio", type=float, default=d.rate_ratio, help="hands fps / body fps (default 2)")
+    p.add_argument("--warp-speed", type=float, nargs=2, default=d.warp_speed, metavar=("LO", "HI"),
+                   help="local speed range of the time warp (default 0.5 2)")
+    p.add_argument("--amplitude", type=float, nargs=2, default=d.amplitude, metavar=("LO", "HI"),
+                   help="arm/torso pull factor range (default 0.25 0.7)")
+    p.add_argument("--yaw", type=float, nargs=2, default=d.yaw_deg, metavar=("LO", "HI"),
+                   help="turn of the hands capture about the vertical, degrees (default 25 60)")
+    p.add_argument("--noise-deg", type=float, default=d.noise_deg, help="finger/wrist noise, degrees (default 0.5)")
+    p.add_argument("--warp-sigma-s", type=float, default=d.warp_sigma_s, help="warp smoothness, seconds (default 1.5)")
+    p.add_argument("--generic-window", type=int, default=None, help="Sakoe-Chiba window of the generic DTW, frames "
+                   "(default: full DTW)")
+    p.add_argument("--synthetic-seconds", type=float, default=60.0, help="length of the synthetic fallback take")
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    params = SeparationParams(args.rate_ratio, tuple(args.warp_speed), tuple(args.amplitude), tuple(args.yaw),
+                              args.noise_deg, args.warp_sigma_s)
+
+    def err(msg: str) -> None:
+        print(msg, file=sys.stderr, flush=True)
+
+    try:
+        takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds, note=lambda m: (print(m), err(m)))
+        runs = evaluate(takes, seeds=args.seeds, seed0=args.seed0, params=params,
+                        generic_window=args.generic_window, progress=err)
+    except SplicerError as e:
+        err(f"splicer-evaluate: {e}")
+        return 1
+    except ValueError as e:  # bad separation parameters
+        err(f"splicer-evaluate: {e}")
+        return 1
+    table = summarize(runs)
+    header = _header(takes, runs, params, args.generic_window)
+    print(header)
+    with pd.option_context("display.width", 250, "display.max_columns", 40, "display.float_format", "{:.2f}".format):
+        print(table.to_string())
+    if args.out:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        table.round(4).to_csv(out.with_suffix(".csv"))
+        out.with_suffix(".md").write_text("# Accuracy (splicer-evaluate)\n\n" + header.replace("\n", "\n\n")
+                                          + to_markdown(table), encoding="utf-8")
+        err(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.md')}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,135 @@
+"""The ``splice`` command: the bundled sample end to end, and every kind of bad input."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from splicer.bvh import read_bvh
+from splicer.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+BODY = ROOT / "motions" / "sample_body.bvh"
+HANDS = ROOT / "motions" / "sample_hands.bvh"
+SYNC = ROOT / "motions" / "sample_sync.yaml"
+
+
+def _run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_sample_end_to_end(tmp_path, capsys):
+    out, rep, png = tmp_path / "out.bvh", tmp_path / "r.json", tmp_path / "a.png"
+    code, stdout, err = _run([BODY, HANDS, "-o", out, "--constraints", SYNC, "--report", rep, "--plot", png], capsys)
+    assert code == 0, err
+    assert "Spliced 1985 hand frames" in stdout and "sides: left, right" in stdout
+    m = read_bvh(out)
+    body = read_bvh(BODY)
+    assert m.n_frames == body.n_frames and m.frame_time == body.frame_time
+    report = json.loads(rep.read_text())
+    assert set(report) >= {"body", "hands", "sides", "timings_s", "warnings"}
+    assert report["body"] == {"path": str(BODY), "frames": 601, "fps": pytest.approx(30.0)}
+    for side in ("left", "right"):
+        s = report["sides"][side]
+        assert len(s["hands_frame"]) == 601
+        assert set(s["pass1"]) == {"band_frames", "cost"} and set(s["pass2"]) == {"band_frames", "cost"}
+        assert len(s["constraints"]) == 4
+        for c in s["constraints"]:  # tolerance 2 honoured
+            assert abs(s["hands_frame"][c["body"]] - c["hands"]) <= 2
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "out.bvh", "r.json"]  # no temporary files left
+
+
+def test_quiet_prints_nothing(tmp_path, capsys):
+    code, out, err = _run([BODY, HANDS, "-o", tmp_path / "o.bvh", "--quiet", "--passes", "pass1"], capsys)
+    assert code == 0 and out == "" and err == ""
+
+
+def _bad(argv, capsys, tmp_path, match):
+    before = set(tmp_path.iterdir())
+    code, out, err = _run(argv, capsys)
+    assert code == 1
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("splice: error: ")
+    assert match in lines[0], lines[0]
+    assert "Traceback" not in err
+    assert set(tmp_path.iterdir()) == before, "bad input must not leave an output file"
+    return lines[0]
+
+
+def test_missing_file(tmp_path, capsys):
+    _bad([tmp_path / "nope.bvh", HANDS, "-o", tmp_path / "o.bvh"], capsys, tmp_path, "nope.bvh")
+
+
+def test_broken_bvh(tmp_path, capsys):
+    broken = tmp_path / "broken.bvh"
+    text = BODY.read_text().splitlines()
+    assert text.index("MOTION") < 399
+    text[399] = text[399].replace(" ", " x ", 1)  # a non-numeric value in a data row
+    broken.write_text("\n".join(text) + "\n")
+    line = _bad([broken, HANDS, "-o", tmp_path / "o.bvh"], capsys, tmp_path, "broken.bvh, line 400")
+    assert "'x'" in line or "x" in line
+
+
+def test_truncated_bvh(tmp_path, capsys):
+    cut = tmp_path / "cut.bvh"
+    cut.write_text("\n".join(BODY.read_text().splitlines()[:300]) + "\n")
+    _bad([BODY, cut, "-o", tmp_path / "o.bvh"], capsys, tmp_path, "cut.bvh, line")
+
+
+def test_no_arm_joints(tmp_path, capsys):
+    legs = tmp_path / "legs.bvh"
+    legs.write_text("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+                    " JOINT LeftUpLeg\n {\n  OFFSET 10 -5 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+                    "  End Site\n  {\n   OFFSET 0 -40 0\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.0333333\n"
+                    "0 90 0 0 0 0 0 0 0\n0 90 0 0 0 0 0 0 0\n")
+    _bad([legs, HANDS, "-o", tmp_path / "o.bvh"], capsys, tmp_path, "legs.bvh: no wrist/hand joint found")
+
+
+def test_impossible_constraint(tmp_path, capsys):
+    sync = tmp_path / "sync.yaml"
+    sync.write_text("pairs:\n  - {body: 100, hands: 400}\n  - {body: 200, hands: 300}\n")
+    _bad([BODY, HANDS, "-o", tmp_path / "o.bvh", "--constraints", sync], capsys, tmp_path, "sync.yaml, line 3: pair 2")
+
+
+def test_constraint_unknown_key(tmp_path, capsys):
+    sync = tmp_path / "sync.yaml"
+    sync.write_text("tolerance: 2\npairs:\n  - {body: 100, hand: 400}\n")
+    _bad([BODY, HANDS, "-o", tmp_path / "o.bvh", "--constraints", sync], capsys, tmp_path, "unknown key 'hand'")
+
+
+def test_unwritable_output(tmp_path, capsys):
+    _bad([BODY, HANDS, "-o", tmp_path / "no" / "such" / "o.bvh"], capsys, tmp_path, "does not exist")
+
+
+def test_output_may_not_overwrite_input(tmp_path, capsys):
+    body = tmp_path / "b.bvh"
+    body.write_bytes(BODY.read_bytes())
+    before = body.read_bytes()
+    code, _, err = _run([body, HANDS, "-o", body], capsys)
+    assert code == 1 and "overwrite an input" in err
+    assert body.read_bytes() == before
+
+
+def test_usage_errors_exit_2(capsys):
+    with pytest.raises(SystemExit) as e:
+        main([str(BODY)])
+    assert e.value.code == 2
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    assert "examples:" in capsys.readouterr().out
+
+
+def test_console_process_has_no_traceback(tmp_path):
+    """The real process: exit status and one line on stderr."""
+    p = subprocess.run([sys.executable, "-m", "splicer.cli", str(tmp_path / "x.bvh"), str(HANDS), "-o",
+                        str(tmp_path / "o.bvh")], capture_output=True, text=True, env={**os.environ, "PYTHONWARNINGS": ""})
+    assert p.returncode == 1
+    assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr

@@ -1,0 +1,120 @@
+"""The evaluation harness (ALGORITHM.md section 8) and its baselines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import SHARED_SKIP_REASON
+from splicer.baselines import generic_dtw_frames, uniform_frames
+from splicer.evaluate import METHODS, METRICS, evaluate, main, summarize, to_markdown
+from splicer.roles import find_roles
+from splicer.separate import separate
+from splicer.synth import make_gesture_take
+
+
+@pytest.fixture(scope="module")
+def short_take():
+    return make_gesture_take(8, 30, np.random.default_rng(7))
+
+
+@pytest.fixture(scope="module")
+def runs(short_take):
+    return evaluate([short_take], seeds=1)
+
+
+@pytest.fixture(scope="module")
+def table(runs):
+    return summarize(runs)
+
+
+def test_table_has_every_method_and_metric(runs, table):
+    assert isinstance(table, pd.DataFrame)
+    assert list(table.index) == list(METHODS)
+    for label, _ in METRICS.values():
+        assert label in table.columns and f"{label} worst" in table.columns
+    assert len(runs) == len(METHODS)
+    assert set(runs.columns) >= {"take", "seed", "method", *METRICS}
+
+
+def test_oracle_is_exact(table):
+    assert table.loc["oracle", "align mean (frames)"] < 1e-6
+    assert table.loc["oracle", "within 1 frame (%)"] == 100.0
+    assert table.loc["oracle", "finger error (deg)"] < 1.5  # only the 0.5 deg capture noise remains
+
+
+def test_no_alignment_is_worse_than_oracle(table):
+    assert table.loc["no alignment", "finger error (deg)"] > table.loc["oracle", "finger error (deg)"] + 1.0
+    assert np.isnan(table.loc["no alignment", "align mean (frames)"])
+
+
+def test_full_method_beats_uniform_scaling(table):
+    full = table.loc["full, smooth time map", "align mean (frames)"]
+    assert full < table.loc["uniform scaling", "align mean (frames)"]
+    assert table.loc["full, smooth time map", "finger error (deg)"] < table.loc["uniform scaling", "finger error (deg)"]
+
+
+def test_worst_is_beside_the_mean():
+    runs = pd.DataFrame([
+        {"take": "t", "seed": s, "method": "oracle", **{k: float(s) for k in METRICS}} for s in range(3)])
+    t = summarize(runs)
+    assert t.loc["oracle", "align mean (frames)"] == 1.0
+    assert t.loc["oracle", "align mean (frames) worst"] == 2.0  # larger error is worse
+    assert t.loc["oracle", "within 1 frame (%) worst"] == 0.0  # smaller share is worse
+    md = to_markdown(t)
+    assert md.count("\n") == 3 and md.startswith("| method |")
+
+
+def test_uniform_frames_end_points():
+    f = uniform_frames(11, 21)
+    assert f[0] == 0 and f[-1] == 20 and np.allclose(np.diff(f), 2.0)
+
+
+def test_generic_dtw_recovers_identity(short_take):
+    """Body against itself (same rate, no warp): the generic DTW is the diagonal."""
+    roles = find_roles(short_take.skeleton)
+    hf = generic_dtw_frames(short_take, short_take, roles["right"], roles["right"], roles.up)
+    assert np.abs(hf - np.arange(short_take.n_frames)).mean() < 0.5
+
+
+def test_inputs_unchanged(short_take):
+    before = short_take.channels.copy()
+    sep = separate(short_take, rng=np.random.default_rng(3))
+    evaluate([short_take], seeds=1, methods=("oracle", "uniform scaling"))
+    assert np.array_equal(short_take.channels, before)
+    assert sep.body.n_frames == short_take.n_frames
+
+
+def test_cli_falls_back_to_synthetic(tmp_path, capsys, monkeypatch):
+    import splicer.evaluate as ev
+
+    monkeypatch.setattr(ev, "SHARED_ZEGGS", tmp_path / "absent")
+    out = tmp_path / "acc"
+    assert main(["--seeds", "1", "--synthetic-seconds", "6", "--out", str(out)]) == 0
+    cap = capsys.readouterr()
+    assert "SYNTHETIC" in cap.out and "seed 0" in cap.err
+    assert "full, smooth time map" in cap.out
+    csv = pd.read_csv(out.with_suffix(".csv"), index_col=0)
+    assert list(csv.index) == list(METHODS)
+    assert "| oracle |" in out.with_suffix(".md").read_text()
+
+
+def test_cli_bad_path(capsys, tmp_path):
+    assert main([str(tmp_path / "nope.bvh"), "--seeds", "1"]) == 1
+    assert "no such file" in capsys.readouterr().err
+
+
+@pytest.mark.shared
+@pytest.mark.slow
+def test_zeggs_one_seed(shared_motions):
+    zeggs = shared_motions / "zeggs"
+    if not any(zeggs.glob("*.bvh")):
+        pytest.skip(SHARED_SKIP_REASON)
+    from splicer.bvh import read_bvh
+
+    take = read_bvh(sorted(zeggs.glob("*.bvh"))[0])
+    t = summarize(evaluate([take], seeds=1, methods=("oracle", "uniform scaling", "full, smooth time map")))
+    assert t.loc["oracle", "finger error (deg)"] < 1.5
+    assert t.loc["full, smooth time map", "align mean (frames)"] < t.loc["uniform scaling", "align mean (frames)"]
+    assert t.loc["full, smooth time map", "finger error (deg)"] < t.loc["uniform scaling", "finger error (deg)"]

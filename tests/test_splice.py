@@ -1,0 +1,228 @@
+"""The whole splice: known answers on synthetic takes, output structure, sides, grafting."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from splicer.bvh import read_bvh, write_bvh
+from splicer.constraints import parse_config
+from splicer.errors import ConstraintError, SplicerError
+from splicer.model import Skeleton, Motion
+from splicer.roles import find_roles
+from splicer.rotations import quat_angle, quat_mul, quat_rotate, yaw_quat
+from splicer.separate import separate, wrist_rooted
+from splicer.splice import splice
+from splicer.synth import make_gesture_take
+from splicer.timewarp import resample_motion, sample_rotations
+
+
+@pytest.fixture(scope="module")
+def take():
+    return make_gesture_take(12.0, 30.0, np.random.default_rng(7))
+
+
+@pytest.fixture(scope="module")
+def roles(take):
+    return find_roles(take.skeleton, source="take")
+
+
+def _finger_joints(roles):
+    return sorted(j for a in roles.sides.values() for j in a.finger_joints)
+
+
+def _flat_fingers(take, roles):
+    fj = _finger_joints(roles)
+    q = np.zeros((take.n_frames, len(fj), 4))
+    q[..., 0] = 1
+    return take.with_rotations(fj, q)
+
+
+def _turned(m, angle_deg, up=1):
+    q = yaw_quat(np.radians(angle_deg), up)
+    m2 = m.with_rotations([0], quat_mul(q[None], m.rotations[:, 0])[:, None])
+    return m2.with_translations(0, quat_rotate(q[None], m.translations[:, 0]))
+
+
+def _frames(result, side):
+    return np.asarray(result.report["sides"][side]["hands_frame"])
+
+
+def test_identity_pair_recovers_identity_and_fingers(take, roles):
+    body = _flat_fingers(take, roles)
+    r = splice(body, take)
+    n = take.n_frames
+    for side in ("left", "right"):
+        np.testing.assert_allclose(_frames(r, side), np.arange(n), atol=1e-6)
+    fj = _finger_joints(roles)
+    err = quat_angle(r.motion.rotations[:, fj], take.rotations[:, fj])
+    assert err.max() < 1e-4  # degrees (arccos near 1 resolves ~1e-6)
+    # every non-finger channel exactly as in the body
+    other = [c for j in range(take.skeleton.n_joints) if j not in fj
+             for c in range(take.skeleton.channel_offsets[j], take.skeleton.channel_offsets[j + 1])]
+    np.testing.assert_array_equal(r.motion.channels[:, other], body.channels[:, other])
+    assert r.motion.frame_time == body.frame_time and r.motion.n_frames == n
+
+
+def test_two_times_slower_hands(take, roles):
+    n = take.n_frames
+    slow = resample_motion(take, np.arange(2 * n - 1) / 2.0, take.frame_time)  # same rate, half speed
+    r = splice(_flat_fingers(take, roles), slow)
+    for side in ("left", "right"):
+        err = np.abs(_frames(r, side) - 2.0 * np.arange(n))
+        assert np.mean(err) < 2.0, f"{side}: mean error {np.mean(err):.2f} hands frames"
+        assert np.median(err) <= 1.0
+
+
+def test_double_rate_hands(take, roles):
+    n = take.n_frames
+    fast = resample_motion(take, np.arange(2 * n - 1) / 2.0, take.frame_time / 2)  # same timing, 60 fps
+    r = splice(_flat_fingers(take, roles), fast)
+    for side in ("left", "right"):
+        assert np.mean(np.abs(_frames(r, side) - 2.0 * np.arange(n))) < 1.0
+
+
+@pytest.mark.parametrize("theta", ["window", "heading"])
+def test_turning_the_hands_performer_changes_nothing(take, roles, theta):
+    sep = separate(take, rng=np.random.default_rng(1), yaw_deg=(0.0, 0.0))
+    base = splice(sep.body, sep.hands, theta=theta)
+    turned = splice(sep.body, _turned(sep.hands, 47.0), theta=theta)
+    for side in ("left", "right"):
+        a, b = _frames(base, side), _frames(turned, side)
+        assert np.mean(np.abs(a - b)) < 0.05, f"{side}: turning moved the alignment by {np.mean(np.abs(a - b)):.3f} frames"
+
+
+def test_separated_take_is_aligned_better_than_uniform(take, roles):
+    sep = separate(take, rng=np.random.default_rng(3))
+    r = splice(sep.body, sep.hands)
+    n = take.n_frames
+    uniform = np.linspace(0, sep.hands.n_frames - 1, n)
+    for side in ("left", "right"):
+        ours = np.abs(np.interp(_frames(r, side), sep.truth, np.arange(n)) - np.arange(n)).mean()
+        unif = np.abs(np.interp(uniform, sep.truth, np.arange(n)) - np.arange(n)).mean()
+        assert ours < 0.5 * unif, (side, ours, unif)
+
+
+@pytest.mark.parametrize("merge", ["timemap", "median"])
+def test_zero_tolerance_constraint_is_exact(take, roles, merge):
+    sep = separate(take, rng=np.random.default_rng(4))
+    x = 150
+    y = int(round(sep.truth[x])) + 9  # deliberately off the truth: the user is obeyed
+    cfg = parse_config(f"pairs:\n  - {{body: {x}, hands: {y}, tolerance: 0}}\n", "sync.yaml")
+    r = splice(sep.body, sep.hands, config=cfg, merge=merge)
+    for side in ("left", "right"):
+        assert _frames(r, side)[x] == y
+        assert np.all(np.diff(_frames(r, side)) >= 0)
+    assert r.report["sides"]["left"]["constraints"][0] == {"body": x, "hands": y, "tolerance": 0, "line": 2}
+
+
+def test_constraint_with_tolerance_and_seconds(take, roles):
+    sep = separate(take, rng=np.random.default_rng(5))
+    x = 200
+    y = int(round(sep.truth[x]))
+    secs = x / take.fps
+    cfg = parse_config(f"tolerance: 3\npairs:\n  - {{body: {secs}s, hands: {y}}}\n", "sync.yaml")
+    r = splice(sep.body, sep.hands, config=cfg, side="right")
+    assert abs(_frames(r, "right")[x] - y) <= 3
+    assert list(r.report["sides"]) == ["right"]
+
+
+def test_impossible_constraints_name_the_line(take, roles):
+    sep = separate(take, rng=np.random.default_rng(6))
+    bad = parse_config("pairs:\n  - {body: 100, hands: 300}\n  - {body: 90, hands: 400}\n", "sync.yaml")
+    with pytest.raises(ConstraintError, match=r"sync.yaml, line 3: pair 2: pairs must increase"):
+        splice(sep.body, sep.hands, config=bad)
+    out = parse_config("pairs:\n  - {body: 5000, hands: 3}\n", "sync.yaml")
+    with pytest.raises(ConstraintError, match=r"line 2: pair 1: body frame 5000 is outside"):
+        splice(sep.body, sep.hands, config=out)
+
+
+def test_wrist_rooted_hand_drives_one_side(take, roles):
+    sep = separate(take, rng=np.random.default_rng(8), hand_only="wrist")
+    right = sep.hand_only["right"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = splice(sep.body, right)
+    assert list(r.report["sides"]) == ["right"]
+    assert any("left" in w for w in r.report["warnings"])
+    n = take.n_frames
+    def err(hf):
+        return np.abs(np.interp(hf, sep.truth, np.arange(n)) - np.arange(n)).mean()
+
+    full = splice(sep.body, sep.hands, side="right")
+    uniform = err(np.linspace(0, sep.hands.n_frames - 1, n))
+    ours = err(_frames(r, "right"))
+    # no forearm or shoulder in the hand file: nearly as good as the full-skeleton capture
+    assert ours < 0.2 * uniform
+    assert ours < err(_frames(full, "right")) + 1.0
+    # the left fingers stay as in the body (flat)
+    lf = list(roles.sides["left"].finger_joints)
+    np.testing.assert_array_equal(r.motion.channels[:, [c for j in lf for c in sep.body.skeleton.rotation_columns(j)]],
+                                  sep.body.channels[:, [c for j in lf for c in sep.body.skeleton.rotation_columns(j)]])
+
+
+def _without_fingers(m: Motion, roles) -> Motion:
+    sk = m.skeleton
+    drop = set(_finger_joints(roles))
+    keep = [j for j in range(sk.n_joints) if j not in drop]
+    pos = {j: k for k, j in enumerate(keep)}
+    new = Skeleton(tuple(sk.names[j] for j in keep), np.array([pos.get(int(sk.parents[j]), -1) for j in keep]),
+                   sk.offsets[keep], tuple(sk.channels[j] for j in keep), sk.end_sites[keep])
+    cols = [c for j in keep for c in range(sk.channel_offsets[j], sk.channel_offsets[j + 1])]
+    return Motion(new, m.channels[:, cols], m.frame_time, "nofingers.bvh")
+
+
+def test_graft_when_body_has_no_fingers(take, roles, tmp_path):
+    body = _without_fingers(take, roles)
+    r = splice(body, take)
+    names = r.motion.skeleton.names
+    assert "LeftHandIndex1" in names and "RightHandPinky3" in names
+    assert r.motion.skeleton.n_joints == take.skeleton.n_joints
+    # grafted under the wrists, fingers follow the hands take
+    sk = r.motion.skeleton
+    assert sk.names[sk.parents[sk.index("LeftHandIndex1")]] == "LeftHand"
+    j_out, j_in = sk.index("RightHandIndex2"), take.skeleton.index("RightHandIndex2")
+    hf = _frames(r, "right")
+    assert np.abs(hf - np.arange(take.n_frames)).mean() < 0.5
+    expected = sample_rotations(take.rotations[:, [j_in]], hf)[:, 0]
+    assert quat_angle(r.motion.rotations[:, j_out], expected).max() < 1e-4
+    write_bvh(r.motion, tmp_path / "g.bvh")
+    again = read_bvh(tmp_path / "g.bvh")
+    assert again.skeleton.names == names
+
+
+def test_inputs_not_modified(take, roles):
+    body = _flat_fingers(take, roles)
+    before_b, before_h = body.channels.copy(), take.channels.copy()
+    splice(body, take)
+    np.testing.assert_array_equal(body.channels, before_b)
+    np.testing.assert_array_equal(take.channels, before_h)
+
+
+def test_bad_options(take):
+    with pytest.raises(SplicerError, match="merge must be one of"):
+        splice(take, take, merge="mean")
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        splice(take, take, bands=3)
+
+
+def test_zeggs_pair_with_leap_hand_runs(shared_motions, tmp_path):
+    """A real body take with a real Leap hand of another performance: the job runs end to end
+    (no truth here) and the output keeps the body's timing and joints."""
+    body = read_bvh(shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hands = read_bvh(shared_motions / "leap-hands" / "thumbelina.bvh")
+    r = splice(body, hands)
+    assert list(r.report["sides"]) == ["right"]
+    assert r.motion.n_frames == body.n_frames
+    assert r.motion.skeleton.names == body.skeleton.names
+    hf = _frames(r, "right")
+    assert hf[0] >= 0 and hf[-1] <= hands.n_frames - 1 and np.all(np.diff(hf) >= 0)
+    # fingers move in the output, body joints do not change
+    roles = find_roles(body.skeleton)
+    fj = roles.sides["right"].finger_joints
+    assert np.ptp(r.motion.rotations[:, fj], axis=0).max() > 0.05
+    nf = [j for j in range(body.skeleton.n_joints) if j not in fj]
+    cols = [c for j in nf for c in range(body.skeleton.channel_offsets[j], body.skeleton.channel_offsets[j + 1])]
+    np.testing.assert_array_equal(r.motion.channels[:, cols], body.channels[:, cols])

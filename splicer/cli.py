@@ -21,7 +21,7 @@ examples:
   splice body.bvh hands.bvh -o out.bvh
   splice body.bvh hands.bvh -o out.bvh --constraints sync.yaml
   splice body.bvh hands.bvh -o out.bvh --report report.json --plot align.png
-  splice body.bvh right_hand.bvh -o out.bvh --side right --band1 20s
+  splice body.bvh right_hand.bvh -o out.bvh --side right --band 20s
 
 bands take frames (120), a share of the body take (30%%) or seconds (20s).
 The constraints file format is in the README (section "Constraints file").
@@ -43,8 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="PNG", help="write cost matrices, bands, constraints and paths")
     p.add_argument("--side", choices=("left", "right", "both"), default="both", help="sides to splice (default both)")
     p.add_argument("--hands-side", choices=("left", "right"), help="side of a hand-only file whose joint names do not say")
-    p.add_argument("--band1", default="30%", help="pass-1 band width (default 30%%)")
-    p.add_argument("--band2", default="10%", help="pass-2 band width (default 10%%)")
+    p.add_argument("--band", "--band1", dest="band1", default="30%",
+                   help="pass-1 band width: frames (120), share of the body take (30%%, the default) or seconds (20s)")
+    p.add_argument("--band2", default=None, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")
     p.add_argument("--passes", choices=("both", "pass1"), default="both", help="run both passes (default) or pass 1 only")

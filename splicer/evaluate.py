@@ -270,7 +270,8 @@ def default_takes(paths=(), *, synthetic_seconds: float = 60.0, note=print) -> l
     from .synth import make_gesture_take
 
     files = []
-    for p in [Path(p) for p in paths] or [SHARED_ZEGGS]:
+    where = [Path(p) for p in paths] or [SHARED_ZEGGS]
+    for p in where:
         if p.is_dir():
             files.extend(sorted(p.glob("*.bvh")))
         elif p.is_file():
@@ -279,7 +280,7 @@ def default_takes(paths=(), *, synthetic_seconds: float = 60.0, note=print) -> l
             raise SplicerError(f"{p}: no such file or folder")
     if files:
         return [read_bvh(f) for f in files]
-    note(f"no BVH found in {SHARED_ZEGGS}: using a SYNTHETIC take instead "
+    note(f"no BVH found in {', '.join(str(p) for p in where)}: using a SYNTHETIC take instead "
          f"(make_gesture_take({synthetic_seconds:g} s, 30 fps, seed 0)) - not real capture data")
     return [make_gesture_take(synthetic_seconds, 30.0, np.random.default_rng(0))]
 
@@ -291,7 +292,8 @@ def _header(takes, runs, p: SeparationParams, generic_window) -> str:
     return (f"Takes: {names}. Seeds: {seeds[0]}..{seeds[-1]} ({len(seeds)} per take).\n"
             f"Separation (ALGORITHM.md 8): {asdict(p)}.\n"
             f"Generic DTW: dtaidistance, {'full' if generic_window is None else f'window {generic_window}'}; "
-            "oracle, uniform and generic DTW sample the fingers by slerp at their frames.\n"
+            "oracle, uniform and generic DTW sample the fingers by slerp at their frames (counted as merge; "
+            "the generic DTW's marker extraction is counted in its alignment time).\n"
             "Each metric: mean over runs, worst run beside it. Alignment error in body frames; "
             "finger error in degrees (geodesic) over moving finger joints; times in seconds for both sides.\n")
 

@@ -33,18 +33,17 @@ def global_transforms(motion: Motion, joints=None) -> tuple[np.ndarray, np.ndarr
     sk = motion.skeleton
     wanted = list(range(sk.n_joints)) if joints is None else [int(j) for j in joints]
     needed = sorted({a for j in wanted for a in sk.chain(j)})
-    local_q = motion.rotations
-    local_t = motion.translations
     gq: dict[int, np.ndarray] = {}
     gp: dict[int, np.ndarray] = {}
     for j in needed:
         p = int(sk.parents[j])
+        q = motion.joint_rotations([j])[:, 0]
+        t = motion.joint_translations([j])[:, 0]
         if p < 0:
-            gq[j] = local_q[:, j]
-            gp[j] = local_t[:, j]
+            gq[j], gp[j] = q, t
         else:
-            gq[j] = quat_mul(gq[p], local_q[:, j])
-            gp[j] = gp[p] + quat_rotate(gq[p], local_t[:, j])
+            gq[j] = quat_mul(gq[p], q)
+            gp[j] = gp[p] + quat_rotate(gq[p], t)
     T = motion.n_frames
     if not wanted:
         return np.zeros((T, 0, 4)), np.zeros((T, 0, 3))

@@ -157,11 +157,21 @@ def _sgn(x, eps):
     return 0.0
 
 
+@njit(cache=True)
+def _signs(x, eps, out):
+    for t in range(x.shape[0]):
+        for m in range(x.shape[1]):
+            for k in range(x.shape[2]):
+                out[t, m, k] = _sgn(x[t, m, k], eps)
+
+
 @njit(cache=True, parallel=True)
-def _d1_rows(i0, i1, lo, hi, width, vb, ab, evb, eab, wb, hb, vh, ah, evh, eah, wh, hh, up, mode, out):
+def _d1_rows(i0, i1, lo, hi, width, sv, sa, wb, hb, vh, ah, evh, eah, wh, hh, up, mode, out):
+    # sv, sa: body velocity / acceleration signs (T, K, 3); vh, ah: raw hands derivatives.
+    # cos/sin of theta come straight from the KGP sums: theta = atan2(num, den).
     a = (up + 1) % 3
     b = (up + 2) % 3
-    K = vb.shape[1]
+    K = sv.shape[1]
     N = wb.shape[2]
     for r in prange(i1 - i0):
         i = i0 + r
@@ -173,28 +183,30 @@ def _d1_rows(i0, i1, lo, hi, width, vb, ab, evb, eab, wb, hb, vh, ah, evh, eah, 
                 for k in range(N):
                     num += wb[i, 1, k] * wh[j, 0, k] - wb[i, 0, k] * wh[j, 1, k]
                     den += wb[i, 0, k] * wh[j, 0, k] + wb[i, 1, k] * wh[j, 1, k]
-                th = np.arctan2(num, den)
+                norm = np.sqrt(num * num + den * den)
+                if norm > 0.0:
+                    cs = den / norm
+                    sn = num / norm
+                else:
+                    cs = 1.0
+                    sn = 0.0
             else:
                 th = hb[i] - hh[j]
-            cs = np.cos(th)
-            sn = np.sin(th)
+                cs = np.cos(th)
+                sn = np.sin(th)
             cost = 0.0
             for m in range(K):
-                d = _sgn(vb[i, m, up], evb) - _sgn(vh[j, m, up], evh)
+                d = sv[i, m, up] - _sgn(vh[j, m, up], evh)
                 cost += d * d
-                d = _sgn(ab[i, m, up], eab) - _sgn(ah[j, m, up], eah)
+                d = sa[i, m, up] - _sgn(ah[j, m, up], eah)
                 cost += d * d
-                va = cs * vh[j, m, a] - sn * vh[j, m, b]
-                vv = sn * vh[j, m, a] + cs * vh[j, m, b]
-                d = _sgn(vb[i, m, a], evb) - _sgn(va, evh)
+                d = sv[i, m, a] - _sgn(cs * vh[j, m, a] - sn * vh[j, m, b], evh)
                 cost += d * d
-                d = _sgn(vb[i, m, b], evb) - _sgn(vv, evh)
+                d = sv[i, m, b] - _sgn(sn * vh[j, m, a] + cs * vh[j, m, b], evh)
                 cost += d * d
-                aa = cs * ah[j, m, a] - sn * ah[j, m, b]
-                ab2 = sn * ah[j, m, a] + cs * ah[j, m, b]
-                d = _sgn(ab[i, m, a], eab) - _sgn(aa, eah)
+                d = sa[i, m, a] - _sgn(cs * ah[j, m, a] - sn * ah[j, m, b], eah)
                 cost += d * d
-                d = _sgn(ab[i, m, b], eab) - _sgn(ab2, eah)
+                d = sa[i, m, b] - _sgn(sn * ah[j, m, a] + cs * ah[j, m, b], eah)
                 cost += d * d
             out[r, c] = cost
         for c in range(hi[i] - lo[i] + 1, width):
@@ -221,13 +233,16 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window")
     if theta not in ("window", "heading"):
         raise ValueError(f"theta must be 'window' or 'heading', not {theta!r}")
     mode = 0 if theta == "window" else 1
+    sv = np.empty_like(body.vel)
+    sa = np.empty_like(body.acc)
+    _signs(body.vel, body.eps_vel, sv)
+    _signs(body.acc, body.eps_acc, sa)
 
     def cost(band, i0: int, i1: int) -> np.ndarray:
         width = int(np.max(band.hi[i0:i1] - band.lo[i0:i1])) + 1
         out = np.empty((i1 - i0, width))
-        _d1_rows(i0, i1, band.lo, band.hi, width, body.vel, body.acc, body.eps_vel, body.eps_acc,
-                 body.window, body.heading, hands.vel, hands.acc, hands.eps_vel, hands.eps_acc,
-                 hands.window, hands.heading, body.up, mode, out)
+        _d1_rows(i0, i1, band.lo, band.hi, width, sv, sa, body.window, body.heading, hands.vel, hands.acc,
+                 hands.eps_vel, hands.eps_acc, hands.window, hands.heading, body.up, mode, out)
         return out
 
     return cost

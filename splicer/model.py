@@ -192,31 +192,53 @@ class Motion:
         return max(self.n_frames - 1, 0) * self.frame_time
 
     @cached_property
-    def rotations(self) -> np.ndarray:
-        """Local joint rotations, shape (T, J, 4), ``(w, x, y, z)``, hemisphere-continuous in time."""
+    def _per_joint(self) -> dict:
+        return {}
+
+    def joint_rotations(self, joints) -> np.ndarray:
+        """Local rotations of some joints, shape (T, K, 4), ``(w, x, y, z)``, hemisphere-continuous in time.
+
+        Converted from the channels on first use and kept; a joint without rotation channels
+        has the identity (missing axes of a joint with fewer than three count as zero).
+        """
         sk = self.skeleton
-        q = np.zeros((self.n_frames, sk.n_joints, 4))
-        q[..., 0] = 1.0
-        for j in range(sk.n_joints):
-            cols = sk.rotation_columns(j)
-            if len(cols) == 3:
-                q[:, j] = quat_from_euler(self.channels[:, cols], sk.rotation_order(j))
-            elif cols:  # fewer than three rotation channels: missing axes are zero
-                order = sk.rotation_order(j)
-                q[:, j] = quat_from_euler(self.channels[:, cols], order)
-        q = quat_hemisphere(q, axis=0)
+        out = np.empty((self.n_frames, len(joints), 4))
+        for k, j in enumerate(joints):
+            key = ("r", int(j))
+            q = self._per_joint.get(key)
+            if q is None:
+                cols = sk.rotation_columns(j)
+                if cols:
+                    q = quat_hemisphere(quat_from_euler(self.channels[:, cols], sk.rotation_order(j)), axis=0)
+                else:
+                    q = np.zeros((self.n_frames, 4))
+                    q[:, 0] = 1.0
+                q.setflags(write=False)
+                self._per_joint[key] = q
+            out[:, k] = q
+        return out
+
+    def joint_translations(self, joints) -> np.ndarray:
+        """Local translations of some joints, shape (T, K, 3), file units (the rest offset where
+        a joint has no position channels)."""
+        sk = self.skeleton
+        out = np.empty((self.n_frames, len(joints), 3))
+        for k, j in enumerate(joints):
+            cols = sk.position_columns(j)
+            out[:, k] = self.channels[:, cols] if cols else sk.offsets[j]
+        return out
+
+    @cached_property
+    def rotations(self) -> np.ndarray:
+        """Local joint rotations of every joint, shape (T, J, 4) (see :meth:`joint_rotations`)."""
+        q = self.joint_rotations(range(self.skeleton.n_joints))
         q.setflags(write=False)
         return q
 
     @cached_property
     def translations(self) -> np.ndarray:
-        """Local joint translations, shape (T, J, 3), file units."""
-        sk = self.skeleton
-        t = np.broadcast_to(sk.offsets, (self.n_frames, sk.n_joints, 3)).copy()
-        for j in range(sk.n_joints):
-            cols = sk.position_columns(j)
-            if cols:
-                t[:, j] = self.channels[:, cols]
+        """Local joint translations of every joint, shape (T, J, 3), file units."""
+        t = self.joint_translations(range(self.skeleton.n_joints))
         t.setflags(write=False)
         return t
 

@@ -50,11 +50,21 @@ def quat_from_euler(angles_deg: np.ndarray, order: str) -> np.ndarray:
     np.ndarray [shape=(..., 4), dtype=float64]
         ``(w, x, y, z)`` quaternions.
     """
-    a, lead = _flat(angles_deg)
-    if a.shape[0] == 0:
-        return np.zeros(lead + (4,))
-    q = Rotation.from_euler(order.upper(), a, degrees=True).as_quat(scalar_first=True)
-    return q.reshape(lead + (4,))
+    a = np.radians(np.asarray(angles_deg, dtype=np.float64))
+    order = order.upper()
+    if len(order) != a.shape[-1]:
+        raise ValueError(f"order {order!r} does not match {a.shape[-1]} angles")
+    q = None
+    for k, axis in enumerate(order):
+        half = 0.5 * a[..., k]
+        qa = np.zeros(a.shape[:-1] + (4,))
+        qa[..., 0] = np.cos(half)
+        qa[..., 1 + "XYZ".index(axis)] = np.sin(half)
+        q = qa if q is None else quat_mul(q, qa)  # intrinsic: R = R_first @ R_second @ R_third
+    if q is None:
+        q = np.zeros(a.shape[:-1] + (4,))
+        q[..., 0] = 1.0
+    return q
 
 
 def euler_from_quat(q: np.ndarray, order: str) -> np.ndarray:

@@ -41,7 +41,7 @@ class SpliceOptions:
 
     side: str = "both"
     band1: float | str = "30%"
-    band2: float | str = "10%"
+    band2: float | str | None = None  # None: a third of band1 (the paper: 30% and 10%)
     theta: str = "window"  # or "heading"
     passes: str = "both"  # "pass1", "pass2" (pass 2 alone, for comparison) or "both"
     pass2_weight: float = 1.0  # radians per band width of departure from the pass-1 warp; 0 = literal
@@ -237,7 +237,7 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
     n = bm.n_frames
     ratio = hm.fps / bm.fps
     w1 = band_frames(opts.band1, n=n, fps=bm.fps)
-    w2 = band_frames(opts.band2, n=n, fps=bm.fps)
+    w2 = w1 / 3.0 if opts.band2 is None else band_frames(opts.band2, n=n, fps=bm.fps)
 
     out = bm
     side_results: dict[str, SideResult] = {}
@@ -302,7 +302,7 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
             fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj)
         sub = sorted({j for g in fmap.hands for j in g})
         local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj)
-        hq = hm.rotations[:, sub]
+        hq = hm.joint_rotations(sub)
         if opts.merge == "timemap":
             tm = smooth_time_map(hands_frames, sigma_frames=opts.timemap_sigma_s * bm.fps, last=last, pins=pins)
             q = sample_rotations(hq, tm)

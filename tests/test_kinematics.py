@@ -49,3 +49,16 @@ def test_euler_order_is_intrinsic_bvh(rng):
     v = rng.normal(size=(20, 3))
     assert np.allclose(np.linalg.norm(quat_rotate(q, v), axis=-1), np.linalg.norm(v, axis=-1))
     del ex
+
+
+def test_quat_from_euler_matches_scipy_every_order(rng):
+    from scipy.spatial.transform import Rotation
+
+    ang = rng.uniform(-360, 360, size=(50, 3))
+    for order in ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"):
+        ours = quat_from_euler(ang, order)
+        ref = Rotation.from_euler(order, ang, degrees=True).as_quat(scalar_first=True)
+        np.testing.assert_allclose(np.abs(np.sum(ours * ref, axis=-1)), 1.0, atol=1e-12)
+    two = quat_from_euler(ang[:, :2], "ZX")
+    ref = Rotation.from_euler("ZX", ang[:, :2], degrees=True).as_quat(scalar_first=True)
+    np.testing.assert_allclose(np.abs(np.sum(two * ref, axis=-1)), 1.0, atol=1e-12)

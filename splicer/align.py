@@ -12,7 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from .band import _trim
 from .dtw import Band, Constraint, DTWResult, dtw, make_band
+from .errors import BandError
 from .markers import Markers
 from .metrics import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
 from .timewarp import sample_linear
@@ -64,8 +66,46 @@ def _run(cost, band: Band) -> DTWResult:
     return dtw(lambda i0, i1: cost(band, i0, i1), band)
 
 
+def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: float, constraints=()) -> Band:
+    """A band of width ``width`` (body frames) that follows a coarse path instead of the diagonal.
+
+    Each coarse cell ``(I, J)`` stands for the fine cells around ``(I * factor, J * factor)``; the
+    band is the union of those blocks along the coarse path, widened by the half-width
+    ``Delta = W * sqrt(1 + s^2) / 2`` (``s = m / n``), clipped to every constraint's window and
+    trimmed to cells that lie on a path.  O(n) memory.
+
+    Raises
+    ------
+    BandError
+        When the result cannot connect (e.g. the coarse path misses a constraint window).
+    """
+    I, J = coarse_path[:, 0], coarse_path[:, 1]
+    nc = int(I.max()) + 1
+    jmin = np.full(nc, np.iinfo(np.int64).max)
+    jmax = np.full(nc, -1)
+    np.minimum.at(jmin, I, J)
+    np.maximum.at(jmax, I, J)
+    ci = np.clip(np.rint(np.arange(n) / factor).astype(np.int64), 0, nc - 1)
+    # neighbouring coarse rows too, so blocks of consecutive rows overlap
+    lo_c = np.minimum(jmin[ci], jmin[np.maximum(ci - 1, 0)])
+    hi_c = np.maximum(jmax[ci], jmax[np.minimum(ci + 1, nc - 1)])
+    delta = width * np.sqrt(1.0 + (m / n) ** 2) / 2.0
+    lo = np.floor(lo_c * factor - factor - delta).astype(np.int64)
+    hi = np.ceil(hi_c * factor + factor + delta).astype(np.int64)
+    lo = np.clip(lo, 0, m - 1)
+    hi = np.clip(hi, 0, m - 1)
+    lo[0] = 0
+    hi[-1] = m - 1
+    for c in constraints:
+        lo[c.x] = max(lo[c.x], c.y - c.tolerance)
+        hi[c.x] = min(hi[c.x], c.y + c.tolerance)
+    lo, hi = _trim(lo, hi)
+    return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints))
+
+
 def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = 0.1,
-          dead_zone: float = 0.1, theta: str = "window") -> PassResult:
+          dead_zone: float = 0.1, theta: str = "window", coarse_fps: float | None = None,
+          coarse_width: float | None = None) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -78,10 +118,32 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         In the frames of these two sequences.
     smooth_s, dead_zone, theta
         See :func:`splicer.metrics.phase_features` and :func:`splicer.metrics.d1_cost`.
+    coarse_fps : float, optional
+        Beyond the paper, for long takes: first align both sequences brought down to this
+        rate, in a band of ``coarse_width`` body frames (at the full rate) around the
+        diagonal, then run the full-rate pass in a band of ``width`` around that coarse path
+        (:func:`guided_band`).  A performance that drifts far from uniform timing over many
+        minutes stays inside the band.  None: the band follows the diagonal (the paper).
     """
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
-    band = make_band(body.n_frames, hands.n_frames, width, constraints)
+    n, m = body.n_frames, hands.n_frames
+    if coarse_fps is not None and coarse_fps < body.fps:
+        factor = body.fps / coarse_fps
+        cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
+        ccons = []
+        for c in constraints:
+            x, y = int(round(c.x / factor)), int(round(c.y / factor))
+            if 0 < x < cb.n_frames - 1 and 0 < y < ch.n_frames - 1 and (not ccons or (x > ccons[-1].x and y > ccons[-1].y)):
+                ccons.append(Constraint(x, y, int(np.ceil(c.tolerance / factor)) + 1))
+        cw = (coarse_width if coarse_width is not None else width) / factor
+        coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta)
+        try:
+            band = guided_band(coarse.path, factor, n, m, width, constraints)
+        except BandError:
+            band = make_band(n, m, width, constraints)  # the coarse path missed a window: the paper's band
+    else:
+        band = make_band(n, m, width, constraints)
     d1 = d1_cost(fb, fh, theta=theta)
     res = _run(d1, band)
     return PassResult(res.path, res.cost, band, "pass1", d1)

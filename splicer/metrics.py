@@ -239,7 +239,7 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window")
     _signs(body.acc, body.eps_acc, sa)
 
     def cost(band, i0: int, i1: int) -> np.ndarray:
-        width = int(np.max(band.hi[i0:i1] - band.lo[i0:i1])) + 1
+        width = band.max_row_width  # the engine wants every chunk padded to the widest row
         out = np.empty((i1 - i0, width))
         _d1_rows(i0, i1, band.lo, band.hi, width, sv, sa, body.window, body.heading, hands.vel, hands.acc,
                  hands.eps_vel, hands.eps_acc, hands.window, hands.heading, body.up, mode, out)
@@ -312,7 +312,7 @@ def d2_cost(body: PalmFeatures, hands: PalmFeatures):
     """A band-chunk cost callable for D2 (radians); see :func:`d1_cost`."""
 
     def cost(band, i0: int, i1: int) -> np.ndarray:
-        width = int(np.max(band.hi[i0:i1] - band.lo[i0:i1])) + 1
+        width = band.max_row_width  # the engine wants every chunk padded to the widest row
         out = np.empty((i1 - i0, width))
         _d2_rows(i0, i1, band.lo, band.hi, width, body.forearm, body.hand, hands.forearm, hands.hand, out)
         return out

@@ -51,6 +51,9 @@ class SpliceOptions:
     timemap_sigma_s: float = 0.1  # time-map smoothing, seconds
     blend_window: int = 4  # median merge: frames blended each side of a jump
     wrist: str = "body"  # or "hands": the wrist rotation comes from the hands capture too
+    coarse: str = "auto"  # "on", "off", or "auto": on for takes over coarse_above_s seconds
+    coarse_fps: float = 5.0  # rate of the coarse guide pass, frames per second
+    coarse_above_s: float = 120.0
     hands_side: str | None = None  # side of a hand-only file whose names do not say
 
 
@@ -259,8 +262,11 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         try:
             if opts.passes in ("pass1", "both"):
                 report_progress(f"{s}: pass 1", 0.0)
+                guided = opts.coarse == "on" or (opts.coarse == "auto" and bm.duration > opts.coarse_above_s)
                 p1 = pass1(bmk, hmk_c, width=w1, constraints=dcons, smooth_s=opts.smooth_s,
-                           dead_zone=opts.dead_zone, theta=opts.theta)
+                           dead_zone=opts.dead_zone, theta=opts.theta,
+                           coarse_fps=opts.coarse_fps if guided else None,
+                           coarse_width=band_frames("30%", n=n, fps=bm.fps))
                 path = p1.path
                 per_frame = path_median(path, n)
                 t0 = tick("pass1", t0)
@@ -343,11 +349,12 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
 
 def _check_options(o: SpliceOptions) -> None:
     choices = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
-               "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right")}
+               "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
+               "coarse": ("auto", "on", "off")}
     for k, allowed in choices.items():
         if getattr(o, k) not in allowed:
             raise SplicerError(f"{k} must be one of {', '.join(str(a) for a in allowed)}, not {getattr(o, k)!r}")
-    for k in ("smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight"):
+    for k in ("smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "coarse_fps", "coarse_above_s"):
         v = getattr(o, k)
         if not (isinstance(v, (int, float)) and v >= 0 and np.isfinite(v)):
             raise SplicerError(f"{k} must be a number >= 0, not {v!r}")

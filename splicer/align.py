@@ -19,7 +19,8 @@ from .markers import Markers
 from .metrics import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
 from .timewarp import sample_linear
 
-__all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose"]
+__all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
+           "remap_constraints", "warp_markers"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,8 +63,17 @@ def resample_markers(markers: Markers, fps: float) -> Markers:
                    markers.up, fps, markers.side)
 
 
-def _run(cost, band: Band) -> DTWResult:
-    return dtw(lambda i0, i1: cost(band, i0, i1), band)
+def _run(cost, band: Band, progress=None) -> DTWResult:
+    """The DTW over ``band`` with a band-chunk cost; ``progress(fraction)`` after each chunk of rows."""
+    if progress is None:
+        return dtw(lambda i0, i1: cost(band, i0, i1), band)
+
+    def chunk(i0, i1):
+        out = cost(band, i0, i1)
+        progress(i1 / band.n)
+        return out
+
+    return dtw(chunk, band)
 
 
 def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: float, constraints=()) -> Band:
@@ -103,9 +113,9 @@ def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: f
     return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints))
 
 
-def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = 0.1,
-          dead_zone: float = 0.1, theta: str = "window", coarse_fps: float | None = None,
-          coarse_width: float | None = None) -> PassResult:
+def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = 0.025,
+          dead_zone: float = 0.01, theta: str = "window", coarse_fps: float | None = None,
+          coarse_width: float | None = None, progress=None) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -118,6 +128,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         In the frames of these two sequences.
     smooth_s, dead_zone, theta
         See :func:`splicer.metrics.phase_features` and :func:`splicer.metrics.d1_cost`.
+    progress : callable, optional
+        ``progress(fraction)`` as the rows are done.
     coarse_fps : float, optional
         Beyond the paper, for long takes: first align both sequences brought down to this
         rate, in a band of ``coarse_width`` body frames (at the full rate) around the
@@ -145,7 +157,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     else:
         band = make_band(n, m, width, constraints)
     d1 = d1_cost(fb, fh, theta=theta)
-    res = _run(d1, band)
+    res = _run(d1, band, progress)
     return PassResult(res.path, res.cost, band, "pass1", d1)
 
 
@@ -164,51 +176,68 @@ def path_median(path: np.ndarray, n: int) -> np.ndarray:
     return 0.5 * (j[starts + (ends - starts) // 2] + j[starts + (ends - starts + 1) // 2])
 
 
-def _regularised_d2(base, n_band_scale: float, weight: float):
-    """D2 plus ``weight`` radians per band-width of departure from the diagonal (the pass-1 warp)."""
+def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):
+    """D2 + ``d1_weight`` * D1 / 24 + ``weight`` radians per band width of departure from the diagonal.
+
+    D1 / 24 is 1 when half of the 24 sign components disagree (D1 ranges 0..96)."""
 
     def cost(band, i0, i1):
-        out = base(band, i0, i1)
+        out = d2(band, i0, i1)
+        if d1 is not None and d1_weight > 0:
+            out = out + (d1_weight / 24.0) * d1(band, i0, i1)
         if weight > 0:
             rows = np.arange(i0, i1)
             cols = band.lo[i0:i1, None] + np.arange(out.shape[1])[None, :]
-            out = out + weight * np.abs(cols - rows[:, None]) / n_band_scale
+            centre = rows * ((band.m - 1) / max(band.n - 1, 1))
+            out = out + weight * np.abs(cols - centre[:, None]) / n_band_scale
         return out
 
     return cost
 
 
-def pass2(body: Markers, hands_warped_points: np.ndarray, *, width: float, constraints=(),
-          diagonal_weight: float = 0.0, smooth_s: float = 0.0) -> PassResult:
+def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
+          diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = 0.025,
+          dead_zone: float = 0.01, theta: str = "window", progress=None) -> PassResult:
     """Pass 2: banded DTW with the palm metric D2 between the body and the pass-1-warped hands.
 
     Parameters
     ----------
     body : Markers
-    hands_warped_points : np.ndarray [shape=(n, 4, 3)]
-        Hands markers sampled at the pass-1 time map, one per body frame.
+    hands_warped : Markers
+        Hands markers sampled at the pass-1 time map, one per body frame (or, for pass 2
+        alone, the hands at the body rate).
     width : float
         Band width W in body frames (the paper: 10% of the body length).
     constraints : sequence of Constraint
         In (body frame, warped frame) coordinates.
     diagonal_weight : float
         0 is the paper's literal pass 2.  A positive weight adds that many radians per
-        band width of departure from the pass-1 warp (the diagonal here): D2 alone is
-        small next to capture noise between neighbouring frames and the path wanders.
-    smooth_s : float
-        Gaussian smoothing (seconds) of the markers before D2.
+        band width of departure from the diagonal (the pass-1 warp): D2 alone is small next
+        to capture noise between neighbouring frames and the path wanders.
+    d1_weight : float
+        Weight of the phase metric D1 (normalised by 24) added to D2, so D2 refines within
+        phases instead of overriding them; 0 is the paper's pass 2.
+    smooth_s, dead_zone, theta
+        D1's settings, as in :func:`pass1`.
+    progress : callable, optional
+        ``progress(fraction)`` as the rows are done.
     """
-    pb, ph = body.points, np.asarray(hands_warped_points, dtype=np.float64)
-    if smooth_s > 0:
-        s = smooth_s * body.fps
-        pb = gaussian_filter1d(pb, s, axis=0, mode="nearest")
-        ph = gaussian_filter1d(ph, s, axis=0, mode="nearest")
-    fb: PalmFeatures = palm_features(pb)
-    fh: PalmFeatures = palm_features(ph)
-    band = make_band(body.n_frames, ph.shape[0], width, constraints)
-    cost = _regularised_d2(d2_cost(fb, fh), max(width, 1.0), diagonal_weight)
-    res = _run(cost, band)
+    fb: PalmFeatures = palm_features(body.points)
+    fh: PalmFeatures = palm_features(hands_warped.points)
+    d1 = None
+    if d1_weight > 0:
+        d1 = d1_cost(phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone),
+                     phase_features(hands_warped, smooth_s=smooth_s, dead_zone=dead_zone), theta=theta)
+    band = make_band(body.n_frames, hands_warped.n_frames, width, constraints)
+    cost = _pass2_cost(d2_cost(fb, fh), d1, max(width, 1.0), diagonal_weight, d1_weight)
+    res = _run(cost, band, progress)
     return PassResult(res.path, res.cost, band, "pass2", cost)
+
+
+def warp_markers(markers: Markers, frames: np.ndarray) -> Markers:
+    """Markers sampled at fractional ``frames`` (linear), e.g. the hands on the body timeline."""
+    return Markers(sample_linear(markers.points, frames), sample_linear(markers.shoulder, frames),
+                   sample_linear(markers.heading, frames), markers.up, markers.fps, markers.side)
 
 
 def compose(map1: np.ndarray, path2: np.ndarray, n: int) -> np.ndarray:

@@ -246,6 +246,45 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
+COMPACT = {  # README table: label -> (mean column, worst column)
+    "alignment error, frames": ("align mean (frames)", "align mean (frames) worst"),
+    "within 1 frame, %": ("within 1 frame (%)", "within 1 frame (%) worst"),
+    "within 3 frames, %": ("within 3 frames (%)", "within 3 frames (%) worst"),
+    "finger error, deg": ("finger error (deg)", "finger error (deg) worst"),
+    "time, s": ("total (s)", "total (s) worst"),
+}
+
+
+def compact_markdown(table: pd.DataFrame) -> str:
+    """The summary as ``mean (worst seed)`` cells, one column per metric (the README's table)."""
+    lines = ["| method | " + " | ".join(COMPACT) + " |", "|---|" + "---:|" * len(COMPACT)]
+    for method, row in table.iterrows():
+        cells = []
+        for mean_col, worst_col in COMPACT.values():
+            m, w = row[mean_col], row[worst_col]
+            digits = 1 if "%" in mean_col else 2
+            cells.append("—" if pd.isna(m) else f"{m:.{digits}f} ({w:.{digits}f})")
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def checks(runs: pd.DataFrame, method: str = "full, smooth time map") -> list[str]:
+    """The acceptance checks of the evaluation issue, per seed, as sentences (true or not)."""
+    out = []
+    by = runs.pivot_table(index=["take", "seed"], columns="method", values=["align_mean", "finger_deg"])
+    for other in ("uniform scaling", "generic DTW"):
+        if other in by["align_mean"] and method in by["align_mean"]:
+            a = by["align_mean"][method] < by["align_mean"][other]
+            f = by["finger_deg"][method] < by["finger_deg"][other]
+            out.append(f"{method} beats {other} on alignment in {int(a.sum())}/{len(a)} runs and on finger "
+                       f"error in {int(f.sum())}/{len(f)} runs.")
+    if "oracle" in by["finger_deg"] and method in by["finger_deg"]:
+        gap = (by["finger_deg"][method] - by["finger_deg"]["oracle"]).mean()
+        out.append(f"{method}: finger error {gap:.2f} deg above the oracle on average "
+                   f"({'within' if gap <= 0.5 else 'NOT within'} the 0.5 deg target).")
+    return out
+
+
 def _fmt(v) -> str:
     if isinstance(v, float) and np.isnan(v):
         return "—"
@@ -343,16 +382,20 @@ def main(argv=None) -> int:
         return 1
     table = summarize(runs)
     header = _header(takes, runs, params, args.generic_window)
+    verdict = checks(runs)
     print(header)
-    with pd.option_context("display.width", 250, "display.max_columns", 40, "display.float_format", "{:.2f}".format):
-        print(table.to_string())
+    print(compact_markdown(table))
+    print("\n".join(verdict))
     if args.out:
         out = Path(args.out)
         out.parent.mkdir(parents=True, exist_ok=True)
         table.round(4).to_csv(out.with_suffix(".csv"))
-        out.with_suffix(".md").write_text("# Accuracy (splicer-evaluate)\n\n" + header.replace("\n", "\n\n")
-                                          + to_markdown(table), encoding="utf-8")
-        err(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.md')}")
+        runs.round(4).to_csv(out.parent / (out.name + "_runs.csv"), index=False)
+        out.with_suffix(".md").write_text(
+            "# Accuracy (splicer-evaluate)\n\n" + header.replace("\n", "\n\n") + "\n" + compact_markdown(table)
+            + "\n" + "\n".join(f"- {v}" for v in verdict) + "\n\n## All metrics\n\n" + to_markdown(table),
+            encoding="utf-8")
+        err(f"wrote {out.with_suffix('.csv')}, {out.name}_runs.csv and {out.with_suffix('.md')}")
     return 0
 
 

@@ -41,8 +41,6 @@ def band_image(pass_result, *, max_pixels: int = _MAX_PIXELS) -> tuple[np.ndarra
 
 
 def _draw_pass(ax, pr, title, constraints=()):
-    import matplotlib.pyplot as plt  # noqa: F401
-
     img, rs, cs = band_image(pr)
     n, m = pr.band.n, pr.band.m
     im = ax.imshow(img.T, origin="lower", aspect="auto", cmap="viridis", interpolation="nearest",

@@ -25,7 +25,7 @@ import numpy as np
 from .kinematics import global_transforms
 from .model import Motion, Skeleton
 from .roles import Roles, find_roles
-from .rotations import quat_angle, quat_conj, quat_hemisphere, quat_mul, quat_normalize, quat_slerp, yaw_quat
+from .rotations import quat_angle, quat_hemisphere, quat_mul, quat_normalize, quat_slerp, yaw_quat
 from .timewarp import resample_motion, smooth_monotone_warp, smooth_noise
 
 __all__ = ["Separation", "separate", "finger_joints", "moving_finger_joints", "wrist_rooted"]

@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .align import PassResult, compose, pass1, pass2, path_median, remap_constraints, resample_markers
+from .align import (PassResult, compose, pass1, pass2, path_median, remap_constraints, resample_markers,
+                    warp_markers)
 from .bvh import read_bvh
 from .constraints import SpliceConfig, frame_number, read_config
 from .dtw import Constraint, band_frames
@@ -24,8 +25,8 @@ from .errors import ConstraintError, SplicerError, SplicerWarning
 from .markers import Markers, arm_markers
 from .merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
 from .model import Motion
-from .roles import FINGERS, SIDES, Roles, find_roles
-from .timewarp import sample_linear, sample_rotations
+from .roles import FINGERS, SIDES, find_roles
+from .timewarp import sample_rotations
 from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
 
 __all__ = ["SpliceOptions", "SideResult", "SpliceResult", "splice"]
@@ -44,11 +45,12 @@ class SpliceOptions:
     band2: float | str | None = None  # None: a third of band1 (the paper: 30% and 10%)
     theta: str = "window"  # or "heading"
     passes: str = "both"  # "pass1", "pass2" (pass 2 alone, for comparison) or "both"
-    pass2_weight: float = 1.0  # radians per band width of departure from the pass-1 warp; 0 = literal
+    pass2_weight: float = 2.0  # radians per band width of departure from the pass-1 warp; 0 = literal
+    pass2_d1_weight: float = 0.0  # weight of D1 (normalised) added to D2 in pass 2; 0 = literal
     merge: str = "timemap"  # or "median"
-    smooth_s: float = 0.1  # marker smoothing before derivatives, seconds
-    dead_zone: float = 0.1  # sign dead zone, fraction of the motion's RMS speed
-    timemap_sigma_s: float = 0.1  # time-map smoothing, seconds
+    smooth_s: float = 0.025  # marker smoothing before derivatives, seconds
+    dead_zone: float = 0.01  # sign dead zone, fraction of the motion's RMS speed
+    timemap_sigma_s: float = 0.2  # time-map smoothing, seconds
     blend_window: int = 4  # median merge: frames blended each side of a jump
     wrist: str = "body"  # or "hands": the wrist rotation comes from the hands capture too
     coarse: str = "auto"  # "on", "off", or "auto": on for takes over coarse_above_s seconds
@@ -90,7 +92,7 @@ class SpliceResult:
     sides: dict = field(default_factory=dict)
 
 
-def _load(m, what: str) -> Motion:
+def _load(m) -> Motion:
     if isinstance(m, Motion):
         return m
     return read_bvh(m)
@@ -205,8 +207,8 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
     report_progress("read", 0.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SplicerWarning)
-        bm = _load(body, "body")
-        hm = _load(hands, "hands")
+        bm = _load(body)
+        hm = _load(hands)
     for w in caught:
         if issubclass(w.category, SplicerWarning):
             note(str(w.message))
@@ -266,22 +268,24 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
                 p1 = pass1(bmk, hmk_c, width=w1, constraints=dcons, smooth_s=opts.smooth_s,
                            dead_zone=opts.dead_zone, theta=opts.theta,
                            coarse_fps=opts.coarse_fps if guided else None,
-                           coarse_width=band_frames("30%", n=n, fps=bm.fps))
+                           coarse_width=band_frames("30%", n=n, fps=bm.fps),
+                           progress=lambda f, s=s: report_progress(f"{s}: pass 1", f))
                 path = p1.path
                 per_frame = path_median(path, n)
                 t0 = tick("pass1", t0)
             if opts.passes == "both":
                 report_progress(f"{s}: pass 2", 0.0)
-                warped = sample_linear(hmk_c.points, per_frame)
-                p2 = pass2(bmk, warped, width=w2, constraints=remap_constraints(dcons, per_frame),
-                           diagonal_weight=opts.pass2_weight)
+                p2 = pass2(bmk, warp_markers(hmk_c, per_frame), width=w2,
+                           constraints=remap_constraints(dcons, per_frame), diagonal_weight=opts.pass2_weight,
+                           d1_weight=opts.pass2_d1_weight, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+                           theta=opts.theta, progress=lambda f, s=s: report_progress(f"{s}: pass 2", f))
                 cells = np.interp(p2.path[:, 1], np.arange(n), per_frame)
                 path = np.stack([p2.path[:, 0], cells], axis=1)
                 per_frame = compose(per_frame, p2.path, n)
                 t0 = tick("pass2", t0)
             elif opts.passes == "pass2":
                 report_progress(f"{s}: pass 2", 0.0)
-                p2 = pass2(bmk, hmk_c.points, width=w1, constraints=dcons, diagonal_weight=0.0)
+                p2 = pass2(bmk, hmk_c, width=w1, constraints=dcons, diagonal_weight=0.0)
                 path = p2.path
                 per_frame = path_median(path, n)
                 t0 = tick("pass2", t0)
@@ -354,7 +358,8 @@ def _check_options(o: SpliceOptions) -> None:
     for k, allowed in choices.items():
         if getattr(o, k) not in allowed:
             raise SplicerError(f"{k} must be one of {', '.join(str(a) for a in allowed)}, not {getattr(o, k)!r}")
-    for k in ("smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "coarse_fps", "coarse_above_s"):
+    for k in ("smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
+              "coarse_above_s"):
         v = getattr(o, k)
         if not (isinstance(v, (int, float)) and v >= 0 and np.isfinite(v)):
             raise SplicerError(f"{k} must be a number >= 0, not {v!r}")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from splicer.align import compose, guided_band, path_median, remap_constraints
-from splicer.dtw import Constraint, dtw, make_band
+from splicer.dtw import Constraint, dtw
 from splicer.errors import BandError
 from splicer.separate import separate
 from splicer.splice import splice

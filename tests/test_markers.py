@@ -7,12 +7,11 @@ from splicer.bvh import read_bvh
 from splicer.kinematics import global_transforms
 from splicer.markers import arm_markers
 from splicer.roles import find_roles
-from splicer.rotations import quat_mul, quat_rotate, yaw_quat, quat_from_euler, euler_from_quat
+from splicer.rotations import quat_mul, quat_rotate, yaw_quat
 
 
 def _turn_root(m, angle_deg, up=1):
     """The motion turned about the up axis through the origin (root rotation and position)."""
-    sk = m.skeleton
     q = yaw_quat(np.radians(angle_deg), up)
     rot = quat_mul(q[None], m.rotations[:, 0])
     m2 = m.with_rotations([0], rot[:, None])

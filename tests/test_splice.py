@@ -11,7 +11,7 @@ from splicer.errors import ConstraintError, SplicerError
 from splicer.model import Skeleton, Motion
 from splicer.roles import find_roles
 from splicer.rotations import quat_angle, quat_mul, quat_rotate, yaw_quat
-from splicer.separate import separate, wrist_rooted
+from splicer.separate import separate
 from splicer.splice import splice
 from splicer.synth import make_gesture_take
 from splicer.timewarp import resample_motion, sample_rotations

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .align import path_median
+from .errors import SplicerError
 from .kinematics import global_transforms
 from .markers import arm_markers
 from .model import Motion
@@ -90,7 +91,11 @@ def generic_dtw_frames(body: Motion, hands: Motion, body_arm: ArmRoles, hands_ar
     -----
     O(n * m) time and memory with the full matrix (dtaidistance's C path keeps the window).
     """
-    from dtaidistance import dtw, dtw_ndim
+    try:
+        from dtaidistance import dtw, dtw_ndim
+    except ImportError:
+        raise SplicerError("the generic-DTW baseline uses dtaidistance, as a user would: "
+                           "pip install -e '.[bench]' (or '.[test]')") from None
 
     ratio = hands.fps / body.fps
     xb = root_frame_hand_positions(body, body_arm, up)

@@ -88,19 +88,19 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         if s.pass1 is not None:
             im = _draw_pass(row[k], s.pass1, f"{s.side}: pass 1, phase metric D1 (band {s.pass1.band.width:.0f} frames)", cons)
             row[k].set_ylabel("hands frame (body rate)")
-            fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02)
+            fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02).set_label("D1 (squared sign differences)", fontsize=8)
             k += 1
         if s.pass2 is not None:
             map1 = None if s.pass1 is None else _median(s.pass1.path, n)
             c2 = cons if map1 is None else remap_constraints(cons, map1)
             im = _draw_pass(row[k], s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2)
             row[k].set_ylabel("warped hands frame" if s.pass1 is not None else "hands frame (body rate)")
-            fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02)
+            fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02).set_label("D2 + departure penalty (rad)", fontsize=8)
             k += 1
         ax = row[k]
         t = np.arange(n)
         ax.plot(t, s.hands_frame, color="black", lw=1.2, label="hands frame used")
-        ax.plot(t, t * (len(s.hands_frame) and s.rate_ratio), color="gray", lw=0.8, ls="--", label="uniform rate")
+        ax.plot(t, np.linspace(0.0, s.hands_frame[-1], n), color="gray", lw=0.8, ls="--", label="uniform time scaling")
         for c in s.constraints:
             ax.errorbar([c["body"]], [c["hands"]], yerr=[[c["tolerance"]], [c["tolerance"]]], fmt="o", color="orange", ms=4, capsize=3)
         ax.set_title(f"{s.side}: time map", fontsize=9)

@@ -228,3 +228,16 @@ def test_zeggs_pair_with_leap_hand_runs(shared_motions, tmp_path):
     nf = [j for j in range(body.skeleton.n_joints) if j not in fj]
     cols = [c for j in nf for c in range(body.skeleton.channel_offsets[j], body.skeleton.channel_offsets[j + 1])]
     np.testing.assert_array_equal(r.motion.channels[:, cols], body.channels[:, cols])
+
+
+def test_wrist_from_the_hands_take(take, roles):
+    sep = separate(take, rng=np.random.default_rng(9), hand_only="wrist")
+    r = splice(sep.body, sep.hands, wrist="hands", side="left")
+    w = roles.sides["left"].wrist
+    expected = sample_rotations(sep.hands.joint_rotations([w]), r.sides["left"].hands_frame)[:, 0]
+    assert quat_angle(r.motion.rotations[:, w], expected).max() < 1e-4
+    right_wrist = roles.sides["right"].wrist  # not requested: unchanged
+    cols = sep.body.skeleton.rotation_columns(right_wrist)
+    np.testing.assert_array_equal(r.motion.channels[:, cols], sep.body.channels[:, cols])
+    with pytest.raises(SplicerError, match="--wrist hands needs a forearm"):
+        splice(sep.body, sep.hand_only["right"], wrist="hands")

@@ -51,16 +51,13 @@ def resample_markers(markers: Markers, fps: float) -> Markers:
     if abs(fps - markers.fps) < 1e-9 * fps:
         return markers
     ratio = markers.fps / fps  # source frames per target frame
-    pts, sh, hd = markers.points, markers.shoulder, markers.heading
     if ratio > 1:
         sigma = 0.5 * ratio
-        pts = gaussian_filter1d(pts, sigma, axis=0, mode="nearest")
-        sh = gaussian_filter1d(sh, sigma, axis=0, mode="nearest")
-        hd = gaussian_filter1d(hd, sigma, axis=0, mode="nearest")
+        markers = Markers(*(gaussian_filter1d(a, sigma, axis=0, mode="nearest")
+                            for a in (markers.points, markers.shoulder, markers.heading)),
+                          markers.up, markers.fps, markers.side)
     m = int(np.floor((markers.n_frames - 1) / ratio + 1e-9)) + 1
-    frames = np.arange(m) * ratio
-    return Markers(sample_linear(pts, frames), sample_linear(sh, frames), sample_linear(hd, frames),
-                   markers.up, fps, markers.side)
+    return warp_markers(markers, np.arange(m) * ratio, fps=fps)
 
 
 def _run(cost, band: Band, progress=None) -> DTWResult:
@@ -234,10 +231,13 @@ def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
     return PassResult(res.path, res.cost, band, "pass2", cost)
 
 
-def warp_markers(markers: Markers, frames: np.ndarray) -> Markers:
-    """Markers sampled at fractional ``frames`` (linear), e.g. the hands on the body timeline."""
+def warp_markers(markers: Markers, frames: np.ndarray, *, fps: float | None = None) -> Markers:
+    """Markers sampled at fractional ``frames`` (linear), e.g. the hands on the body timeline.
+
+    ``fps`` is the rate of the result (the input's by default)."""
     return Markers(sample_linear(markers.points, frames), sample_linear(markers.shoulder, frames),
-                   sample_linear(markers.heading, frames), markers.up, markers.fps, markers.side)
+                   sample_linear(markers.heading, frames), markers.up, markers.fps if fps is None else fps,
+                   markers.side)
 
 
 def compose(map1: np.ndarray, path2: np.ndarray, n: int) -> np.ndarray:

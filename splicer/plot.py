@@ -72,7 +72,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .align import remap_constraints
+    from .align import path_median, remap_constraints
     from .splice import _dtw_constraints
 
     sides = list(result.sides.values())
@@ -91,7 +91,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02).set_label("D1 (squared sign differences)", fontsize=8)
             k += 1
         if s.pass2 is not None:
-            map1 = None if s.pass1 is None else _median(s.pass1.path, n)
+            map1 = None if s.pass1 is None else path_median(s.pass1.path, n)
             c2 = cons if map1 is None else remap_constraints(cons, map1)
             im = _draw_pass(row[k], s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2)
             row[k].set_ylabel("warped hands frame" if s.pass1 is not None else "hands frame (body rate)")
@@ -122,9 +122,3 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         plt.close(fig)
         if os.path.exists(tmp):
             os.unlink(tmp)
-
-
-def _median(path, n):
-    from .align import path_median
-
-    return path_median(path, n)

@@ -55,7 +55,7 @@ def child(pickle_path: str, options_json: str) -> None:
     """Run in a child process: load the pair, warm up, splice, print one JSON line."""
     sys.path.insert(0, str(REPO))
     from splicer.separate import separate
-    from splicer.splice import splice
+    from splicer import splice
     from splicer.synth import make_gesture_take
 
     rng = np.random.default_rng(1)
@@ -132,7 +132,7 @@ def run_cli(sep, tmp: Path) -> dict:
     write_bvh(sep.hands, hands)
     # warm the numba cache in this environment first (a user's second run)
     subprocess.run([sys.executable, "-c", "import numpy as np; from splicer.synth import make_gesture_take; "
-                    "from splicer.separate import separate; from splicer.splice import splice; "
+                    "from splicer.separate import separate; from splicer import splice; "
                     "r = np.random.default_rng(1); s = separate(make_gesture_take(4, 30, r), rng=r); "
                     "splice(s.body, s.hands, band1='2s', coarse='on')"], check=True, cwd=str(REPO))
     res = subprocess.run([sys.executable, __file__, "--cli", str(body), str(hands), str(out), str(rep)],

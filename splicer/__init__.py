@@ -2,31 +2,72 @@
 
 The method is Majkowska, Zordan & Faloutsos, "Automatic Splicing for Hand and Body
 Animations" (SCA 2006): virtual markers on wrist, forearm and hand; a banded DTW pass with a
-derivative-sign phase metric; a narrower pass with a palm-angle metric; user constraints;
-merge; BVH out.
+derivative-sign phase metric; a narrower pass with a palm-angle metric; user pins; merge;
+BVH out.
+
+Public API
+----------
+Motions
+    :func:`read_bvh`, :func:`write_bvh`, :class:`Motion`, :class:`Skeleton`.
+The splice
+    :func:`splice` (the whole job), :class:`SpliceOptions`, :class:`SpliceResult`,
+    :class:`SideResult`, :class:`Report` (``to_dict()``, ``to_json()``), :class:`SideReport`.
+Stages (each returns a typed result; :func:`splice` composes them)
+    :func:`load_inputs` -> :func:`find_rig` -> :func:`side_markers` -> :func:`align_side`
+    -> :func:`time_map` -> :func:`transfer_side` -> :func:`build_report`.
+The constraints file
+    :func:`read_config`, :func:`parse_config`, :class:`SpliceConfig`, :class:`Pin`.
+Skeletons
+    :func:`find_roles`.
+Errors
+    :class:`SplicerError` (base), :class:`BVHError`, :class:`RoleError`,
+    :class:`ConstraintError`, :class:`BandError`; warnings: :class:`SplicerWarning`.
+
+Example
+-------
+>>> import splicer
+>>> result = splicer.splice("body.bvh", "hands.bvh", config="sync.yaml")    # doctest: +SKIP
+>>> splicer.write_bvh(result.motion, "out.bvh")                               # doctest: +SKIP
+
+Importing :mod:`splicer` is cheap: the modules behind each name (numba kernels, bvhio,
+YAML) load on first use.
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
 
-from .errors import BandError, BVHError, ConstraintError, RoleError, SplicerError  # noqa: E402
+import importlib
+
+__version__ = "0.2.0"
+
+from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
+                     SplicerWarning)
 from .model import Motion, Skeleton  # noqa: E402
 
-
-def __getattr__(name):  # lazy: importing splicer does not load numba kernels or bvhio
-    if name in ("read_bvh", "write_bvh"):
-        from . import bvh
-
-        return getattr(bvh, name)
-    if name in ("splice", "SpliceResult", "SpliceOptions"):
-        from . import splice as _s
-
-        return getattr(_s, name)
-    if name == "find_roles":
-        from .roles import find_roles
-
-        return find_roles
-    raise AttributeError(f"module 'splicer' has no attribute {name!r}")
-
+#: public name -> module that defines it (loaded on first access)
+_LAZY = {
+    "read_bvh": ".bvh", "write_bvh": ".bvh",
+    "splice": ".pipeline", "SpliceResult": ".pipeline", "SideResult": ".pipeline",
+    "load_inputs": ".pipeline", "find_rig": ".pipeline", "side_markers": ".pipeline", "align_side": ".pipeline",
+    "time_map": ".pipeline", "transfer_side": ".pipeline", "build_report": ".pipeline",
+    "SpliceOptions": ".options",
+    "Report": ".report", "SideReport": ".report",
+    "read_config": ".constraints", "parse_config": ".constraints", "SpliceConfig": ".constraints",
+    "Pin": ".frames",
+    "find_roles": ".roles",
+}
 
 __all__ = ["BVHError", "BandError", "ConstraintError", "Motion", "RoleError", "Skeleton", "SplicerError",
-           "find_roles", "read_bvh", "splice", "write_bvh", "__version__"]
+           "SplicerWarning", "__version__", *sorted(_LAZY)]
+
+
+def __getattr__(name):
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'splicer' has no attribute {name!r}")
+    value = getattr(importlib.import_module(mod, __name__), name)
+    globals()[name] = value  # later lookups skip __getattr__
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

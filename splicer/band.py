@@ -246,11 +246,11 @@ def _as_constraints(constraints, n, m):
         if not 0 < y < m - 1:
             raise ConstraintError(
                 f"constraint #{k} (x={x}, y={y}): hands frame y must satisfy 0 < y < m-1 = {m - 1}")
-        if out and not (x > out[-1].x and y > out[-1].y):
+        if out and not (x > out[-1].x and y >= out[-1].y):
             p = out[-1]
             raise ConstraintError(
-                f"constraint #{k} (x={x}, y={y}) does not strictly follow constraint #{k - 1} "
-                f"(x={p.x}, y={p.y}): constraints must increase in both x and y")
+                f"constraint #{k} (x={x}, y={y}) does not follow constraint #{k - 1} "
+                f"(x={p.x}, y={p.y}): constraints must increase in x and not decrease in y")
         out.append(Constraint(x, y, t))
     return tuple(out)
 
@@ -326,7 +326,8 @@ def make_band(n: int, m: int, width: float, constraints=()) -> Band:
         ``W``, perpendicular band width in frames of the first sequence (see
         :func:`band_frames` for percentages and seconds).
     constraints : sequence of Constraint or (x, y[, T]) tuples
-        0-based frame pairs, strictly increasing in both ``x`` and ``y``, with
+        0-based frame pairs, strictly increasing in ``x`` and non-decreasing in ``y`` (a path
+        may hold one hands frame over several body frames), with
         ``0 < x < n - 1`` and ``0 < y < m - 1``.  The endpoints are implicit.
 
     Returns
@@ -360,10 +361,12 @@ def make_band(n: int, m: int, width: float, constraints=()) -> Band:
         for k in range(1, len(cons)):
             p, c = cons[k - 1], cons[k]
             if c.x == p.x + 1 and (c.y - c.tolerance) - (p.y + p.tolerance) > 1:
-                raise ConstraintError(
+                err = ConstraintError(
                     f"constraints #{k - 1} (x={p.x}, y={p.y}, T={p.tolerance}) and #{k} "
                     f"(x={c.x}, y={c.y}, T={c.tolerance}) are infeasible: adjacent body frames "
                     f"cannot match hands frames more than T + T' + 1 apart")
+                err.pair = (k - 1, k)
+                raise err
         raise ConstraintError("the constraints cannot be satisfied by any band width")  # pragma: no cover
     if bad is not None:
         wmin = _min_width(n, m, width, cons)

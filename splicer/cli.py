@@ -1,4 +1,4 @@
-"""The ``splice`` command: parses options and calls :func:`splicer.splice.splice`.
+"""The ``splice`` command: parses options and calls :func:`splicer.splice`.
 
 Exit status: 0 done, 1 bad input (files, joints, constraints, output path), 2 usage.
 """
@@ -127,7 +127,7 @@ def main(argv=None) -> int:
     progress = _Progress(sys.stderr, not args.quiet)
     try:
         from .bvh import write_bvh
-        from .splice import splice
+        from .pipeline import splice
 
         out = Path(args.output)
         _check_output(out, [args.body, args.hands, args.constraints])
@@ -141,7 +141,7 @@ def main(argv=None) -> int:
                             passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side)
         write_bvh(result.motion, out)
         if args.report:
-            _write_json(result.report, Path(args.report))
+            _write_json(result.report.to_dict(), Path(args.report))
         if args.plot:
             from .plot import plot_alignment
 

@@ -13,7 +13,7 @@ From real full-body takes with moving fingers, :func:`splicer.separate.separate`
 * time per stage, seconds (markers, alignment, merge, total; both sides).
 
 Methods: the oracle (hands sampled at the true times), no alignment (fingers flat), uniform
-time scaling, a generic DTW (:mod:`splicer.baselines`), and :func:`splicer.splice.splice`
+time scaling, a generic DTW (:mod:`splicer.baselines`), and :func:`splicer.splice`
 with pass 1 alone, the literal D2 pass alone, pass 1 + the paper's literal pass 2
 (``pass2_weight=0``), and the full method with the median merge and with the smooth time map.
 Baselines that do not go through ``splice`` sample the hands' finger rotations at their
@@ -40,7 +40,7 @@ from .model import Motion
 from .roles import find_roles
 from .rotations import quat_angle
 from .separate import moving_finger_joints, separate
-from .splice import splice
+from .pipeline import splice
 from .timewarp import sample_rotations
 
 __all__ = ["SeparationParams", "METHODS", "METRICS", "evaluate_pair", "evaluate", "summarize",
@@ -117,7 +117,7 @@ def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | N
     generic_window : int, optional
         Sakoe-Chiba window of the generic DTW, body frames; full DTW when None.
     splice_options : dict, optional
-        Extra :class:`~splicer.splice.SpliceOptions` fields applied to every splice method.
+        Extra :class:`~splicer.options.SpliceOptions` fields applied to every splice method.
 
     Returns
     -------

@@ -137,3 +137,39 @@ def blend_jumps(q: np.ndarray, time_map: np.ndarray, *, jump: float, window: int
         t = (np.arange(a + 1, b) - a) / (b - a)
         q[a + 1:b] = quat_slerp(q[a][None], q[b][None], t[:, None])
     return q
+
+
+def hold_pins(time_map: np.ndarray, pins, *, last: float) -> np.ndarray:
+    """Project a non-decreasing time map so every pin holds: ``|tm[x] - y| <= T``.
+
+    Each pin ``(x, y, T)`` bounds the map from below by ``y - T`` from row ``x`` on, and
+    from above by ``y + T`` up to row ``x`` (the map is non-decreasing).  Clipping a
+    non-decreasing map between those two non-decreasing envelopes keeps it non-decreasing
+    and puts every pinned row inside its window, whatever the smoothing did.
+
+    Parameters
+    ----------
+    time_map : np.ndarray [shape=(n,)]
+        Hands-file frames per body frame, non-decreasing.
+    pins : sequence of (int, float, float)
+        (body frame, hands frame, tolerance in hands frames), increasing in both frames.
+    last : float
+        Last hands frame.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,)]
+
+    Examples
+    --------
+    >>> hold_pins(np.array([0., 1., 2., 3., 4.]), [(2, 3.5, 0.0)], last=10).tolist()
+    [0.0, 1.0, 3.5, 3.5, 4.0]
+    """
+    tm = np.maximum.accumulate(np.asarray(time_map, dtype=np.float64))
+    n = len(tm)
+    lower = np.zeros(n)
+    upper = np.full(n, float(last))
+    for x, y, t in pins:
+        lower[x:] = np.maximum(lower[x:], y - t)
+        upper[:x + 1] = np.minimum(upper[:x + 1], y + t)
+    return np.clip(np.minimum(np.maximum(tm, lower), upper), 0.0, last)

@@ -73,7 +73,6 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     import matplotlib.pyplot as plt
 
     from .align import path_median, remap_constraints
-    from .splice import _dtw_constraints
 
     sides = list(result.sides.values())
     if not sides:
@@ -83,7 +82,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     for row, s in zip(axes, sides):
         n = len(s.hands_frame)
         m = s.hands_markers.n_frames
-        cons = _dtw_constraints(s.constraints, n, m, s.rate_ratio)
+        cons = s.alignment.constraints
         k = 0
         if s.pass1 is not None:
             im = _draw_pass(row[k], s.pass1, f"{s.side}: pass 1, phase metric D1 (band {s.pass1.band.width:.0f} frames)", cons)
@@ -101,8 +100,8 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         t = np.arange(n)
         ax.plot(t, s.hands_frame, color="black", lw=1.2, label="hands frame used")
         ax.plot(t, np.linspace(0.0, s.hands_frame[-1], n), color="gray", lw=0.8, ls="--", label="uniform time scaling")
-        for c in s.constraints:
-            ax.errorbar([c["body"]], [c["hands"]], yerr=[[c["tolerance"]], [c["tolerance"]]], fmt="o", color="orange", ms=4, capsize=3)
+        for p in s.pins:
+            ax.errorbar([p.body], [p.hands], yerr=[[p.tolerance], [p.tolerance]], fmt="o", color="orange", ms=4, capsize=3)
         ax.set_title(f"{s.side}: time map", fontsize=9)
         ax.set_xlabel("body frame")
         ax.set_ylabel("hands-file frame")

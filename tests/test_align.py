@@ -7,7 +7,7 @@ from splicer.align import compose, guided_band, path_median, remap_constraints
 from splicer.dtw import Constraint, dtw
 from splicer.errors import BandError
 from splicer.separate import separate
-from splicer.splice import splice
+from splicer import splice
 from splicer.synth import make_gesture_take
 
 

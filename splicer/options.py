@@ -1,0 +1,81 @@
+"""The options of a splice, in one place: :class:`SpliceOptions` and its validation."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+from .errors import SplicerError
+
+__all__ = ["SpliceOptions", "resolve_options"]
+
+
+@dataclass(frozen=True)
+class SpliceOptions:
+    """Options of :func:`splicer.splice` (each also a keyword argument there).
+
+    Band widths accept frames (an int, ``120``), a share of the body take (``"30%"``) or
+    seconds (``"20s"``).  Times are in seconds (``_s``), angles in radians unless named
+    ``_deg``.
+    """
+
+    side: str = "both"
+    band1: int | float | str = "30%"
+    band2: int | float | str | None = None  # None: a third of band1 (the paper: 30% and 10%)
+    theta: str = "window"  # or "heading"
+    passes: str = "both"  # "pass1", "pass2" (pass 2 alone, for comparison) or "both"
+    pass2_weight: float = 2.0  # radians per band width of departure from the pass-1 warp; 0 = literal
+    pass2_d1_weight: float = 0.0  # weight of D1 (normalised) added to D2 in pass 2; 0 = literal
+    merge: str = "timemap"  # or "median"
+    smooth_s: float = 0.025  # marker smoothing before derivatives, seconds
+    dead_zone: float = 0.01  # sign dead zone, fraction of the motion's RMS speed
+    timemap_sigma_s: float = 0.2  # time-map smoothing, seconds
+    blend_window: int = 4  # median merge: frames blended each side of a jump
+    wrist: str = "body"  # or "hands": the wrist rotation comes from the hands capture too
+    coarse: str = "auto"  # "on", "off", or "auto": on for takes over coarse_above_s seconds
+    coarse_fps: float = 5.0  # rate of the coarse guide pass, frames per second
+    coarse_above_s: float = 120.0
+    hands_side: str | None = None  # side of a hand-only file whose names do not say
+
+    def __repr__(self) -> str:
+        changed = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self)
+                   if getattr(self, f.name) != f.default]
+        return f"SpliceOptions({', '.join(changed)})"
+
+
+_CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
+            "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
+            "coarse": ("auto", "on", "off")}
+_NONNEGATIVE = ("smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
+                "coarse_above_s")
+
+
+def resolve_options(options: SpliceOptions | None = None, overrides: dict | None = None) -> SpliceOptions:
+    """``options`` (default :class:`SpliceOptions`) with ``overrides`` applied, validated.
+
+    Raises
+    ------
+    TypeError
+        An unknown option name.
+    SplicerError
+        A value out of its range, naming the option.
+    """
+    opts = options if options is not None else SpliceOptions()
+    if not isinstance(opts, SpliceOptions):
+        raise TypeError(f"splice(): options must be a SpliceOptions, not {type(opts).__name__}")
+    if overrides:
+        known = {f.name for f in fields(SpliceOptions)}
+        unknown = sorted(set(overrides) - known)
+        if unknown:
+            raise TypeError(f"splice(): unknown option(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        opts = replace(opts, **overrides)
+    for k, allowed in _CHOICES.items():
+        if getattr(opts, k) not in allowed:
+            raise SplicerError(f"{k} must be one of {', '.join(str(a) for a in allowed)}, not {getattr(opts, k)!r}")
+    for k in _NONNEGATIVE:
+        v = getattr(opts, k)
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and v >= 0 and math.isfinite(v)):
+            raise SplicerError(f"{k} must be a number >= 0, not {v!r}")
+    if isinstance(opts.blend_window, bool) or not (isinstance(opts.blend_window, int) and opts.blend_window >= 0):
+        raise SplicerError(f"blend_window must be a whole number of frames >= 0, not {opts.blend_window!r}")
+    return opts

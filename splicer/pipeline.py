@@ -1,0 +1,507 @@
+"""The whole job as stages: load -> rig -> markers -> align -> time map -> transfer -> report.
+
+:func:`splice` composes the stages; each stage is a function with a typed, frozen result,
+usable on its own (notebooks, other tools).  Frame-space conversions live in
+:mod:`splicer.frames`; options in :mod:`splicer.options`.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import BandError, ConstraintError, SplicerError, SplicerWarning
+from .frames import FrameSpaces, Pin, pins_from_config
+from .model import Motion
+from .options import SpliceOptions, resolve_options
+from .report import Report, SideReport
+
+__all__ = ["Inputs", "Rig", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
+           "load_inputs", "find_rig", "side_markers", "align_side", "time_map", "transfer_side", "build_report",
+           "splice"]
+
+
+class Log:
+    """Warnings, stage timings and progress of one splice (the only mutable piece, kept here)."""
+
+    def __init__(self, progress=None):
+        self.warnings: list[str] = []
+        self.timings: dict[str, float] = {}
+        self._progress = progress
+        self._t0 = time.perf_counter()
+        self._start = self._t0
+
+    def note(self, msg: str) -> None:
+        """Add a warning for the report and the summary."""
+        self.warnings.append(msg)
+
+    def progress(self, stage: str, fraction: float) -> None:
+        if self._progress is not None:
+            self._progress(stage, fraction)
+
+    def tick(self, stage: str) -> None:
+        """Charge the time since the last tick to ``stage``."""
+        t1 = time.perf_counter()
+        self.timings[stage] = self.timings.get(stage, 0.0) + (t1 - self._t0)
+        self._t0 = t1
+
+    def total(self) -> float:
+        return time.perf_counter() - self._start
+
+
+# ---------------------------------------------------------------- stage 1: load
+
+@dataclass(frozen=True, eq=False)
+class Inputs:
+    """Both takes and the constraints/config file."""
+
+    body: Motion
+    hands: Motion
+    config: object  # SpliceConfig
+
+    @property
+    def spaces(self) -> FrameSpaces:
+        return FrameSpaces(self.body.n_frames, self.hands.n_frames, self.body.fps, self.hands.fps)
+
+
+def load_inputs(body, hands, config=None, log: Log | None = None) -> Inputs:
+    """Read both takes (paths or :class:`~splicer.model.Motion`) and the config (path or SpliceConfig)."""
+    from .bvh import read_bvh
+    from .constraints import SpliceConfig, read_config
+
+    log = log or Log()
+    log.progress("read", 0.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SplicerWarning)
+        bm = body if isinstance(body, Motion) else read_bvh(body)
+        hm = hands if isinstance(hands, Motion) else read_bvh(hands)
+    for w in caught:
+        if issubclass(w.category, SplicerWarning):
+            log.note(str(w.message))
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    cfg = read_config(config) if isinstance(config, (str, Path)) else (config or SpliceConfig())
+    log.tick("read")
+    return Inputs(bm, hm, cfg)
+
+
+# ---------------------------------------------------------------- stage 2: rig
+
+@dataclass(frozen=True)
+class Rig:
+    """Skeleton roles of both takes and the sides to splice."""
+
+    body: object  # Roles
+    hands: object  # Roles
+    sides: tuple[str, ...]
+
+
+def find_rig(inputs: Inputs, opts: SpliceOptions, log: Log | None = None) -> Rig:
+    """Find each take's arms and hands; keep the sides both takes have (others: a warning).
+
+    Raises
+    ------
+    SplicerError
+        No side can be spliced.
+    """
+    from .roles import FINGERS, SIDES, find_roles
+
+    log = log or Log()
+    bm, hm, cfg = inputs.body, inputs.hands, inputs.config
+    hands_side = opts.hands_side or cfg.hands_side
+    broles = find_roles(bm.skeleton, source=bm.source or "body", mapping=cfg.joints.get("body"), up=cfg.up.get("body"))
+    hroles = find_roles(hm.skeleton, source=hm.source or "hands", mapping=cfg.joints.get("hands"),
+                        up=cfg.up.get("hands"), side=hands_side)
+    todo = []
+    for s in (SIDES if opts.side == "both" else (opts.side,)):
+        if s not in broles.sides:
+            log.note(f"{bm.source or 'body'}: no {s} arm found; the {s} side is skipped")
+        elif s not in hroles.sides:
+            log.note(f"{hm.source or 'hands'}: no {s} hand found; the {s} side is skipped")
+        elif not any(f in hroles.sides[s].fingers for f in FINGERS):
+            log.note(f"{hm.source or 'hands'}: the {s} hand has no finger joints; the {s} side is skipped")
+        else:
+            todo.append(s)
+    if not todo:
+        raise SplicerError(
+            f"no side can be spliced: body sides {sorted(broles.sides) or 'none'}, hands sides "
+            f"{sorted(hroles.sides) or 'none'} (requested: {opts.side})")
+    log.tick("roles")
+    return Rig(broles, hroles, tuple(todo))
+
+
+# ---------------------------------------------------------------- stage 3: markers
+
+@dataclass(frozen=True, eq=False)
+class SideMarkers:
+    """One side's markers at the common (body) rate, and its pins.
+
+    Attributes
+    ----------
+    side : str
+    body, hands : Markers
+        Body markers (``n`` frames) and hands markers resampled to the body rate (``m`` frames).
+    spaces : FrameSpaces
+    pins : tuple of Pin
+        The user's pins for this side, in file frames.
+    """
+
+    side: str
+    body: object
+    hands: object
+    spaces: FrameSpaces
+    pins: tuple
+
+
+def _align_up(markers, up_to: int):
+    """Relabel axes cyclically (a proper rotation) so the vertical axis becomes ``up_to``."""
+    from .markers import Markers
+
+    if markers.up == up_to:
+        return markers
+    shift = (up_to - markers.up) % 3
+    perm = [(k - shift) % 3 for k in range(3)]  # new axis k takes old axis perm[k]
+    return Markers(markers.points[..., perm], markers.shoulder[..., perm], markers.heading,
+                   up_to, markers.fps, markers.side)
+
+
+def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) -> SideMarkers:
+    """Virtual markers of ``side`` in both takes, the hands brought to the body's rate and up axis."""
+    from .align import resample_markers
+    from .markers import arm_markers
+
+    log = log or Log()
+    log.progress(f"{side}: markers", 0.0)
+    bm, hm = inputs.body, inputs.hands
+    bmk = arm_markers(bm, rig.body.sides[side], rig.body.up)
+    hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
+    pins = pins_from_config(inputs.config, side, inputs.spaces)
+    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins)
+    log.tick("markers")
+    return out
+
+
+# ---------------------------------------------------------------- stage 4: align
+
+@dataclass(frozen=True, eq=False)
+class Alignment:
+    """Both passes of one side.
+
+    Attributes
+    ----------
+    per_frame : np.ndarray [shape=(n,)]
+        Hands frame (common rate, fractional) matched to each body frame.
+    path : np.ndarray [shape=(K, 2)]
+        The final correspondence (body frame, common hands frame), for the median merge.
+    pass1, pass2 : PassResult or None
+    constraints : tuple of Constraint
+        The pins as DTW constraints (body frame, common hands frame).
+    """
+
+    per_frame: np.ndarray
+    path: np.ndarray
+    pass1: object
+    pass2: object
+    constraints: tuple
+
+    def __repr__(self) -> str:
+        return f"Alignment(body_frames={len(self.per_frame)}, passes={[p.name for p in (self.pass1, self.pass2) if p]})"
+
+
+def _pin_error(e: SplicerError, pins: tuple[Pin, ...], side: str) -> SplicerError:
+    """A band/constraint error in terms of the user's pins (file, line, numbers)."""
+    seg = getattr(e, "segment", None)
+    if isinstance(e, BandError) and seg is not None and pins:
+        before = "the start of both takes" if seg == 0 else pins[seg - 1].describe()
+        after = "the end of both takes" if seg >= len(pins) else pins[seg].describe()
+        w = getattr(e, "min_width", None)
+        wtxt = f"; a band of at least {w:.0f} body frames would (--band {int(np.ceil(w))})" if w else ""
+        return type(e)(f"{side} side: the band cannot connect {before} to {after}{wtxt}")
+    pair = getattr(e, "pair", None)
+    if pair is not None and pins:
+        a, b = pins[pair[0]], pins[pair[1]]
+        return type(e)(f"{side} side: {b.describe()} cannot follow {a.describe()}: adjacent body frames cannot "
+                       "match hands frames further apart than their tolerances allow")
+    return type(e)(f"{side} side: {e}")
+
+
+def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None) -> Alignment:
+    """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed.
+
+    Raises
+    ------
+    SplicerError
+        A band that cannot reach the pins, named by their file and line.
+    """
+    from .align import compose, pass1, pass2, path_median, remap_constraints, warp_markers
+    from .band import band_frames
+
+    log = log or Log()
+    s, bmk, hmk = markers.side, markers.body, markers.hands
+    n, m = bmk.n_frames, hmk.n_frames
+    fps = markers.spaces.body_fps
+    w1 = band_frames(opts.band1, n=n, fps=fps)
+    w2 = w1 / 3.0 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
+    cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
+    p1 = p2 = None
+    try:
+        if opts.passes in ("pass1", "both"):
+            log.progress(f"{s}: pass 1", 0.0)
+            guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
+            p1 = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+                       theta=opts.theta, coarse_fps=opts.coarse_fps if guided else None,
+                       coarse_width=band_frames("30%", n=n, fps=fps),
+                       progress=lambda f: log.progress(f"{s}: pass 1", f))
+            path, per_frame = p1.path, path_median(p1.path, n)
+            log.tick("pass1")
+        if opts.passes == "both":
+            log.progress(f"{s}: pass 2", 0.0)
+            p2 = pass2(bmk, warp_markers(hmk, per_frame), width=w2, constraints=remap_constraints(cons, per_frame),
+                       diagonal_weight=opts.pass2_weight, d1_weight=opts.pass2_d1_weight, smooth_s=opts.smooth_s,
+                       dead_zone=opts.dead_zone, theta=opts.theta,
+                       progress=lambda f: log.progress(f"{s}: pass 2", f))
+            path = np.stack([p2.path[:, 0], np.interp(p2.path[:, 1], np.arange(n), per_frame)], axis=1)
+            per_frame = compose(per_frame, p2.path, n)
+            log.tick("pass2")
+        elif opts.passes == "pass2":
+            p2 = pass2(bmk, hmk, width=w1, constraints=cons, diagonal_weight=0.0)
+            path, per_frame = p2.path, path_median(p2.path, n)
+            log.tick("pass2")
+    except (BandError, ConstraintError) as e:
+        raise _pin_error(e, markers.pins, s) from None
+    except SplicerError as e:
+        raise type(e)(f"{s} side: {e}") from None
+    return Alignment(per_frame, path, p1, p2, cons)
+
+
+# ---------------------------------------------------------------- stage 5: time map
+
+def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) -> np.ndarray:
+    """Hands-file frame for each body frame: smoothed, monotone, every pin held within its T.
+
+    Returns
+    -------
+    np.ndarray [shape=(n_body,), dtype=float64]
+        Non-decreasing, within ``[0, n_hands - 1]``.
+    """
+    from .merge import hold_pins, pin_constraints, smooth_time_map
+
+    sp = markers.spaces
+    hands_frames = sp.common_to_hands(alignment.per_frame)
+    pins = [(p.body, float(p.hands), float(p.tolerance)) for p in markers.pins]
+    last = sp.n_hands - 1
+    if opts.merge == "timemap":
+        tm = smooth_time_map(hands_frames, sigma_frames=opts.timemap_sigma_s * sp.body_fps, last=last, pins=pins)
+    else:
+        tm = np.clip(pin_constraints(hands_frames, pins), 0, last)
+    return hold_pins(tm, pins, last=last)
+
+
+# ---------------------------------------------------------------- stage 6: transfer
+
+@dataclass(frozen=True, eq=False)
+class Transfer:
+    """The output after one side's fingers were carried over.
+
+    Attributes
+    ----------
+    motion : Motion
+        The body take with this side's finger joints driven by the hands (and grafted joints).
+    joints : dict
+        Output joint name -> hands joint names driving it.
+    """
+
+    motion: Motion
+    joints: dict
+
+
+def _hand_scale(body_sk, barm, hands_sk, harm) -> float | None:
+    from .kinematics import rest_positions
+
+    if barm.elbow is None or harm.elbow is None:
+        return None
+    rb, rh = rest_positions(body_sk), rest_positions(hands_sk)
+    lb = np.linalg.norm(rb[barm.wrist] - rb[barm.elbow])
+    lh = np.linalg.norm(rh[harm.wrist] - rh[harm.elbow])
+    return float(lb / lh) if lh > 0 else None
+
+
+def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: Alignment, tm: np.ndarray,
+                  opts: SpliceOptions, log: Log | None = None, *, pins: tuple = ()) -> Transfer:
+    """Drive ``side``'s finger joints of ``out`` by the hands take sampled at the time map.
+
+    A body without finger joints gets the hands' finger subtree grafted under its wrist.
+    The median merge (the paper) takes rotation medians along the path and blends jumps.
+    """
+    from .merge import blend_jumps, median_rotations
+    from .roles import FINGERS, find_roles
+    from .timewarp import sample_rotations
+    from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
+
+    log = log or Log()
+    log.progress(f"{side}: transfer", 0.0)
+    bm, hm, cfg = inputs.body, inputs.hands, inputs.config
+    barm = find_roles(out.skeleton, source=bm.source, mapping=cfg.joints.get("body"), up=rig.body.up).sides[side]
+    harm = rig.hands.sides[side]
+    if not any(f in barm.fingers for f in FINGERS):
+        scale = _hand_scale(bm.skeleton, rig.body.sides[side], hm.skeleton, harm)
+        if scale is None:
+            scale = 1.0
+            log.note(f"{side} side: body has no finger joints and no forearm length to compare; "
+                     "the hands' fingers are grafted at their own size")
+        out, barm = graft_fingers(out, barm, hm.skeleton, harm, scale)
+        log.note(f"{side} side: the body has no finger joints; grafted the hands' {len(barm.finger_joints)} "
+                 f"finger joints under {out.skeleton.names[barm.wrist]}")
+    fmap = finger_map(out.skeleton, barm, hm.skeleton, harm)
+    if opts.wrist == "hands":
+        if harm.elbow is None:
+            raise SplicerError(f"{hm.source or 'hands'}: --wrist hands needs a forearm joint above the {side} "
+                               "wrist in the hands file")
+        fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj)
+    sub = sorted({j for g in fmap.hands for j in g})
+    local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj)
+    hq = hm.joint_rotations(sub)
+    if opts.merge == "timemap":
+        q = sample_rotations(hq, tm)
+    else:
+        ratio, last, n = inputs.spaces.ratio, hm.n_frames - 1, bm.n_frames
+        path = alignment.path
+        q = median_rotations(hq, np.clip(path[:, 1] * ratio, 0, last), path[:, 0].astype(np.int64), n)
+        q = blend_jumps(q, tm, jump=3.0 * max(ratio, 1.0), window=opts.blend_window)
+        fixed = np.array(sorted({p.body for p in pins}), dtype=np.int64)
+        if len(fixed):  # pinned frames show exactly the time map's (pinned) hands frame
+            q[fixed] = sample_rotations(hq, tm[fixed])
+    if fmap.body:
+        out = out.with_rotations(list(fmap.body), carried_rotations(q, local))
+    else:
+        log.note(f"{side} side: no finger joints could be paired between body and hands")
+    log.tick("transfer")
+    return Transfer(out, {out.skeleton.names[b]: [hm.skeleton.names[j] for j in g]
+                          for b, g in zip(fmap.body, fmap.hands)})
+
+
+# ---------------------------------------------------------------- stage 7: report
+
+@dataclass(frozen=True, eq=False)
+class SideResult:
+    """Everything about one side: markers, alignment, time map.
+
+    Attributes
+    ----------
+    hands_frame : np.ndarray [shape=(n_body,)]
+        0-based, possibly fractional hands-file frame used for each body frame.
+    """
+
+    side: str
+    hands_frame: np.ndarray
+    markers: SideMarkers
+    alignment: Alignment
+
+    @property
+    def pass1(self):
+        return self.alignment.pass1
+
+    @property
+    def pass2(self):
+        return self.alignment.pass2
+
+    @property
+    def pins(self) -> tuple:
+        return self.markers.pins
+
+    @property
+    def body_markers(self):
+        return self.markers.body
+
+    @property
+    def hands_markers(self):
+        return self.markers.hands
+
+    @property
+    def rate_ratio(self) -> float:
+        return self.markers.spaces.ratio
+
+    def __repr__(self) -> str:
+        return f"SideResult(side={self.side!r}, body_frames={len(self.hands_frame)}, pins={len(self.pins)})"
+
+
+@dataclass(frozen=True, eq=False)
+class SpliceResult:
+    """The output motion, the report, and each side's intermediate results."""
+
+    motion: Motion
+    report: Report
+    sides: dict = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        return (f"SpliceResult(motion={self.motion.n_frames} frames x {self.motion.skeleton.n_joints} joints, "
+                f"sides={sorted(self.sides)}, warnings={len(self.report.warnings)})")
+
+
+def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, joints: dict, log: Log) -> Report:
+    """The typed report of a finished splice."""
+    from . import __version__
+
+    def pass_info(p):
+        return None if p is None else {"band_frames": round(float(p.band.width), 3), "cost": float(p.cost)}
+
+    side_reports = {}
+    for s, r in sides.items():
+        pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in r.pins)
+        side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, joints[s])
+    bm, hm = inputs.body, inputs.hands
+    timings = dict(log.timings, total=log.total())
+    return Report(__version__, {"path": bm.source, "frames": bm.n_frames, "fps": bm.fps},
+                  {"path": hm.source, "frames": hm.n_frames, "fps": hm.fps},
+                  {f: getattr(opts, f) for f in opts.__dataclass_fields__}, side_reports, timings,
+                  tuple(log.warnings))
+
+
+# ---------------------------------------------------------------- the whole job
+
+def splice(body, hands, *, config=None, options: SpliceOptions | None = None, progress=None,
+           **overrides) -> SpliceResult:
+    """Splice the hands capture's finger motion onto the body capture.
+
+    Parameters
+    ----------
+    body, hands : Motion or path
+        The full-body take and the hand take (a full skeleton, a forearm-rooted or a
+        wrist-rooted hand).
+    config : SpliceConfig or path, optional
+        Pins, joint mappings and up axes (the constraints file, see :mod:`splicer.constraints`).
+    options : SpliceOptions, optional
+        All options at once; keyword ``overrides`` (fields of :class:`SpliceOptions`) win.
+    progress : callable, optional
+        ``progress(stage: str, fraction: float)``, called often during long stages.
+
+    Returns
+    -------
+    SpliceResult
+        ``.motion``: the body take with the hands' fingers; ``.report``: a :class:`Report`
+        (``.to_dict()`` is the JSON); ``.sides``: each side's markers and alignment.
+
+    Examples
+    --------
+    >>> import splicer
+    >>> r = splicer.splice("motions/sample_body.bvh", "motions/sample_hands.bvh", side="left")  # doctest: +SKIP
+    """
+    opts = resolve_options(options, overrides)
+    log = Log(progress)
+    inputs = load_inputs(body, hands, config, log)
+    rig = find_rig(inputs, opts, log)
+    out, sides, joints = inputs.body, {}, {}
+    for s in rig.sides:
+        markers = side_markers(inputs, rig, s, log)
+        alignment = align_side(markers, opts, log)
+        tm = time_map(alignment, markers, opts)
+        transfer = transfer_side(out, inputs, rig, s, alignment, tm, opts, log, pins=markers.pins)
+        out, joints[s] = transfer.motion, transfer.joints
+        sides[s] = SideResult(s, tm, markers, alignment)
+    report = build_report(inputs, opts, sides, joints, log)
+    log.progress("done", 1.0)
+    return SpliceResult(out, report, sides)

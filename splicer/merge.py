@@ -173,3 +173,70 @@ def hold_pins(time_map: np.ndarray, pins, *, last: float) -> np.ndarray:
         lower[x:] = np.maximum(lower[x:], y - t)
         upper[:x + 1] = np.minimum(upper[:x + 1], y + t)
     return np.clip(np.minimum(np.maximum(tm, lower), upper), 0.0, last)
+
+
+def coverage_weights(n: int, covered: tuple[int, int] | None, *, window: int) -> np.ndarray:
+    """Weight of the hands' rotations per body frame: 1 inside the covered range, 0 outside,
+    ramping linearly over ``window`` frames inside the covered range at each uncovered side.
+
+    Parameters
+    ----------
+    n : int
+        Body frames.
+    covered : (int, int) or None
+        First and last body frame the hands take covers (inclusive); None: all of them.
+    window : int
+        Frames of each ramp (>= 0).  A ramp never reaches past the middle of the covered range.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,), dtype=float64]
+
+    Examples
+    --------
+    >>> coverage_weights(10, (2, 7), window=2).tolist()
+    [0.0, 0.0, 0.3333333333333333, 0.6666666666666666, 1.0, 1.0, 0.6666666666666666, 0.3333333333333333, 0.0, 0.0]
+    >>> coverage_weights(4, None, window=3).tolist()
+    [1.0, 1.0, 1.0, 1.0]
+    """
+    w = np.ones(n)
+    if covered is None:
+        return w
+    a, b = int(covered[0]), int(covered[1])
+    w[:a] = 0.0
+    w[b + 1:] = 0.0
+    half = max((b - a) // 2, 0)
+    if a > 0 and window > 0:
+        k = min(window, half)
+        w[a:a + k] = np.arange(1, k + 1) / (k + 1)
+    if b < n - 1 and window > 0:
+        k = min(window, half)
+        w[b - k + 1:b + 1] = np.arange(k, 0, -1) / (k + 1)
+    return w
+
+
+def frame_ranges(mask: np.ndarray, *, min_gap: int = 0) -> list[list[int]]:
+    """Runs of True in ``mask`` as ``[first, last]`` (inclusive) frame pairs.
+
+    Runs separated by at most ``min_gap`` False frames are joined.
+
+    Examples
+    --------
+    >>> frame_ranges(np.array([0, 1, 1, 0, 0, 1, 0, 1], bool))
+    [[1, 2], [5, 5], [7, 7]]
+    >>> frame_ranges(np.array([0, 1, 1, 0, 0, 1, 0, 1], bool), min_gap=1)
+    [[1, 2], [5, 7]]
+    """
+    m = np.asarray(mask, dtype=bool)
+    if not m.any():
+        return []
+    d = np.diff(np.concatenate([[0], m.astype(np.int8), [0]]))
+    starts = np.flatnonzero(d == 1)
+    ends = np.flatnonzero(d == -1) - 1
+    out: list[list[int]] = []
+    for s, e in zip(starts, ends):
+        if out and s - out[-1][1] - 1 <= min_gap:
+            out[-1][1] = int(e)
+        else:
+            out.append([int(s), int(e)])
+    return out

@@ -31,6 +31,7 @@ class SpliceOptions:
     dead_zone: float = 0.01  # sign dead zone, fraction of the motion's RMS speed
     timemap_sigma_s: float = 0.2  # time-map smoothing, seconds
     blend_window: int = 4  # median merge: frames blended each side of a jump
+    uncovered_blend_s: float = 0.25  # body frames without hands material: blend in/out over this, seconds
     wrist: str = "body"  # or "hands": the wrist rotation comes from the hands capture too
     coarse: str = "auto"  # "on", "off", or "auto": on for takes over coarse_above_s seconds
     coarse_fps: float = 5.0  # rate of the coarse guide pass, frames per second
@@ -46,7 +47,7 @@ class SpliceOptions:
 _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off")}
-_NONNEGATIVE = ("smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
+_NONNEGATIVE = ("uncovered_blend_s", "smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
                 "coarse_above_s")
 
 

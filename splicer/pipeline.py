@@ -207,6 +207,8 @@ class Alignment:
     pass1: object
     pass2: object
     constraints: tuple
+    covered: tuple | None = None  # (first, last) body frames the hands cover; None: all
+    confidence: object = None  # per-frame confidence and estimated error, when computed
 
     def __repr__(self) -> str:
         return f"Alignment(body_frames={len(self.per_frame)}, passes={[p.name for p in (self.pass1, self.pass2) if p]})"
@@ -283,22 +285,28 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
 def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) -> np.ndarray:
     """Hands-file frame for each body frame: smoothed, monotone, every pin held within its T.
 
+    Body frames outside the covered range (open ends) have no hands material: NaN there.
+
     Returns
     -------
     np.ndarray [shape=(n_body,), dtype=float64]
-        Non-decreasing, within ``[0, n_hands - 1]``.
+        Non-decreasing over the covered frames, within ``[0, n_hands - 1]``; NaN elsewhere.
     """
     from .merge import hold_pins, pin_constraints, smooth_time_map
 
     sp = markers.spaces
-    hands_frames = sp.common_to_hands(alignment.per_frame)
-    pins = [(p.body, float(p.hands), float(p.tolerance)) for p in markers.pins]
+    n = len(alignment.per_frame)
+    a, b = alignment.covered if alignment.covered is not None else (0, n - 1)
+    hands_frames = sp.common_to_hands(alignment.per_frame[a:b + 1])
+    pins = [(p.body - a, float(p.hands), float(p.tolerance)) for p in markers.pins if a <= p.body <= b]
     last = sp.n_hands - 1
     if opts.merge == "timemap":
-        tm = smooth_time_map(hands_frames, sigma_frames=opts.timemap_sigma_s * sp.body_fps, last=last, pins=pins)
+        seg = smooth_time_map(hands_frames, sigma_frames=opts.timemap_sigma_s * sp.body_fps, last=last, pins=pins)
     else:
-        tm = np.clip(pin_constraints(hands_frames, pins), 0, last)
-    return hold_pins(tm, pins, last=last)
+        seg = np.clip(pin_constraints(hands_frames, pins), 0, last)
+    tm = np.full(n, np.nan)
+    tm[a:b + 1] = hold_pins(seg, pins, last=last)
+    return tm
 
 
 # ---------------------------------------------------------------- stage 6: transfer
@@ -337,8 +345,9 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
     A body without finger joints gets the hands' finger subtree grafted under its wrist.
     The median merge (the paper) takes rotation medians along the path and blends jumps.
     """
-    from .merge import blend_jumps, median_rotations
+    from .merge import blend_jumps, coverage_weights, median_rotations
     from .roles import FINGERS, find_roles
+    from .rotations import quat_slerp
     from .timewarp import sample_rotations
     from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
 
@@ -365,6 +374,8 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
     sub = sorted({j for g in fmap.hands for j in g})
     local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj)
     hq = hm.joint_rotations(sub)
+    covered = np.flatnonzero(np.isfinite(tm))
+    tm = np.interp(np.arange(len(tm)), covered, tm[covered])  # uncovered frames: the nearest covered one
     if opts.merge == "timemap":
         q = sample_rotations(hq, tm)
     else:
@@ -376,7 +387,11 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
         if len(fixed):  # pinned frames show exactly the time map's (pinned) hands frame
             q[fixed] = sample_rotations(hq, tm[fixed])
     if fmap.body:
-        out = out.with_rotations(list(fmap.body), carried_rotations(q, local))
+        carried = carried_rotations(q, local)
+        if alignment.covered is not None:  # uncovered body frames keep the body's own rotations
+            w = coverage_weights(len(tm), alignment.covered, window=int(round(opts.uncovered_blend_s * bm.fps)))
+            carried = quat_slerp(out.joint_rotations(list(fmap.body)), carried, w[:, None])
+        out = out.with_rotations(list(fmap.body), carried)
     else:
         log.note(f"{side} side: no finger joints could be paired between body and hands")
     log.tick("transfer")
@@ -442,6 +457,44 @@ class SpliceResult:
                 f"sides={sorted(self.sides)}, warnings={len(self.report.warnings)})")
 
 
+#: estimated alignment error above which a body frame is "low confidence", seconds: the
+#: finger-to-body desynchronisation viewers notice (Joerg, Hodgins & O'Sullivan 2010)
+LOW_CONFIDENCE_S = 0.1
+
+
+def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
+    """Report keys for covered/uncovered frames and confidence; warnings for the summary."""
+    from .merge import frame_ranges
+
+    out: dict = {}
+    aln = r.alignment
+    uncovered = frame_ranges(~np.isfinite(r.hands_frame))
+    if aln.covered is not None:
+        out["covered"] = [int(aln.covered[0]), int(aln.covered[1])]
+        out["uncovered"] = uncovered
+        if uncovered:
+            fps = r.markers.spaces.body_fps
+            spans = ", ".join(f"{a}-{b} ({(b - a + 1) / fps:.1f} s)" for a, b in uncovered)
+            log.note(f"{r.side} side: no hands material covers body frames {spans}; they keep the body's own "
+                     "fingers, blended in and out")
+    conf = aln.confidence
+    if conf is not None:
+        from .report import _round_list
+
+        out["confidence"] = _round_list(conf.confidence, 3)
+        out["est_error_s"] = _round_list(conf.est_error_s, 4)
+        low = frame_ranges(np.nan_to_num(conf.est_error_s, nan=0.0) > LOW_CONFIDENCE_S, min_gap=2)
+        out["low_confidence"] = low
+        if low:
+            fps = r.markers.spaces.body_fps
+            worst = sorted(low, key=lambda ab: -float(np.nanmax(conf.est_error_s[ab[0]:ab[1] + 1])))[:3]
+            where = ", ".join(f"{a}-{b} (~{np.nanmax(conf.est_error_s[a:b + 1]):.2f} s)" for a, b in worst)
+            share = sum(b - a + 1 for a, b in low) / n
+            log.note(f"{r.side} side: low confidence in {100 * share:.0f}% of body frames; worst {where}; a pin "
+                     f"(constraints file) near frame {(worst[0][0] + worst[0][1]) // 2} would help most")
+    return out
+
+
 def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, joints: dict, log: Log) -> Report:
     """The typed report of a finished splice."""
     from . import __version__
@@ -452,7 +505,8 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, joints: dict,
     side_reports = {}
     for s, r in sides.items():
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in r.pins)
-        side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, joints[s])
+        side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, joints[s],
+                                     _coverage_report(r, inputs.body.n_frames, log))
     bm, hm = inputs.body, inputs.hands
     timings = dict(log.timings, total=log.total())
     return Report(__version__, {"path": bm.source, "frames": bm.n_frames, "fps": bm.fps},

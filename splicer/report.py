@@ -16,7 +16,8 @@ __all__ = ["SideReport", "Report"]
 
 
 def _round_list(a, digits=4) -> list:
-    return [round(float(v), digits) for v in np.asarray(a, dtype=np.float64)]
+    """Numbers rounded for JSON; NaN (no value, e.g. an uncovered frame) becomes None (null)."""
+    return [round(float(v), digits) if np.isfinite(v) else None for v in np.asarray(a, dtype=np.float64)]
 
 
 @dataclass(frozen=True, eq=False)

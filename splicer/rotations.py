@@ -10,7 +10,6 @@ intrinsic product ``R = Rz @ Rx @ Ry``.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 __all__ = [
     "quat_from_euler",
@@ -68,12 +67,30 @@ def quat_from_euler(angles_deg: np.ndarray, order: str) -> np.ndarray:
 
 
 def euler_from_quat(q: np.ndarray, order: str) -> np.ndarray:
-    """Intrinsic Euler angles (degrees, in ``order``) of quaternions ``(..., 4)``."""
-    f, lead = _flat(q)
-    if f.shape[0] == 0:
-        return np.zeros(lead + (3,))
-    e = Rotation.from_quat(f, scalar_first=True).as_euler(order.upper(), degrees=True, suppress_warnings=True)
-    return e.reshape(lead + (3,))
+    """Intrinsic Euler angles (degrees, in ``order``) of quaternions ``(..., 4)``.
+
+    The inverse of :func:`quat_from_euler` for three distinct axes: with ``R = R_a R_b R_c``
+    the middle angle is in [-90, 90] degrees; at gimbal lock (middle angle +-90) the last
+    angle is set to 0 and the first carries the whole turn.
+
+    Examples
+    --------
+    >>> q = quat_from_euler(np.array([30.0, -45.0, 100.0]), "ZXY")
+    >>> np.round(euler_from_quat(q, "ZXY"), 6).tolist()
+    [30.0, -45.0, 100.0]
+    """
+    order = order.upper()
+    if len(order) != 3 or len(set(order)) != 3 or not set(order) <= set("XYZ"):
+        raise ValueError(f"order must be three distinct axes of XYZ, not {order!r}")
+    m = quat_to_matrix(quat_normalize(np.asarray(q, dtype=np.float64)))
+    i, j, k = ("XYZ".index(c) for c in order)
+    s = 1.0 if (i, j, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
+    sb = np.clip(s * m[..., i, k], -1.0, 1.0)
+    b = np.arcsin(sb)
+    locked = np.abs(sb) > 1.0 - 1e-12
+    a = np.where(locked, np.arctan2(s * m[..., k, j], m[..., j, j]), np.arctan2(-s * m[..., j, k], m[..., k, k]))
+    c = np.where(locked, 0.0, np.arctan2(-s * m[..., i, j], m[..., i, i]))
+    return np.degrees(np.stack([a, b, c], axis=-1))
 
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -127,13 +144,33 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def quat_from_matrix(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(..., 4)`` of rotation matrices ``(..., 3, 3)``."""
+    """Unit quaternions ``(..., 4)`` of rotation matrices ``(..., 3, 3)`` (Shepperd's method).
+
+    Each matrix is read through its largest of ``trace, m00, m11, m22``, so no division is
+    ill-conditioned; the result has ``w >= 0``.  A degenerate matrix never raises: NaN in
+    gives NaN out, the zero matrix gives the identity; callers decide what such a frame means.
+
+    Examples
+    --------
+    >>> quat_from_matrix(np.array([[0., -1, 0], [1, 0, 0], [0, 0, 1]])).round(6).tolist()  # 90 deg about Z
+    [0.707107, 0.0, 0.0, 0.707107]
+    """
     m = np.asarray(m, dtype=np.float64)
-    lead = m.shape[:-2]
-    if int(np.prod(lead)) == 0:
-        return np.zeros(lead + (4,))
-    q = Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat(scalar_first=True)
-    return q.reshape(lead + (4,))
+    m00, m01, m02 = m[..., 0, 0], m[..., 0, 1], m[..., 0, 2]
+    m10, m11, m12 = m[..., 1, 0], m[..., 1, 1], m[..., 1, 2]
+    m20, m21, m22 = m[..., 2, 0], m[..., 2, 1], m[..., 2, 2]
+    tr = m00 + m11 + m22
+    case = np.argmax(np.stack([tr, m00, m11, m22], axis=-1), axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cand = np.stack([
+            np.stack([1 + tr, m21 - m12, m02 - m20, m10 - m01], axis=-1),
+            np.stack([m21 - m12, 1 + m00 - m11 - m22, m01 + m10, m02 + m20], axis=-1),
+            np.stack([m02 - m20, m01 + m10, 1 - m00 + m11 - m22, m12 + m21], axis=-1),
+            np.stack([m10 - m01, m02 + m20, m12 + m21, 1 - m00 - m11 + m22], axis=-1),
+        ], axis=-2)
+        q = np.take_along_axis(cand, case[..., None, None], axis=-2)[..., 0, :]
+        q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return np.where(q[..., :1] < 0, -q, q)
 
 
 def quat_normalize(q: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
+from .filters import gaussian_filter1d
 
 from .band import _trim
 from .dtw import Band, Constraint, DTWResult, dtw, make_band

@@ -13,7 +13,7 @@ Two ways, chosen by ``merge=``:
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
+from .filters import gaussian_filter1d
 
 from .rotations import quat_hemisphere, quat_median, quat_slerp
 from .timewarp import sample_rotations

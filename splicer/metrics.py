@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit, prange
-from scipy.ndimage import gaussian_filter1d
+from .filters import gaussian_filter1d
 
 from .markers import Markers
 

@@ -9,7 +9,7 @@ frames, everything else linearly.  Frames outside ``[0, T - 1]`` are clipped to 
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
+from .filters import gaussian_filter1d
 
 from .model import Motion
 from .rotations import euler_from_quat, quat_normalize, quat_slerp

@@ -12,7 +12,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from .model import Motion
-from .rotations import euler_from_quat, quat_normalize, quat_slerp
+from .rotations import euler_channels_deg, quat_normalize, quat_slerp
 
 __all__ = ["sample_rotations", "sample_linear", "resample_motion", "smooth_noise", "smooth_monotone_warp"]
 
@@ -112,10 +112,7 @@ def resample_motion(motion: Motion, frames: np.ndarray, frame_time: float) -> Mo
         q = sample_rotations(motion.rotations[:, rot3], frames)
         for k, j in enumerate(rot3):
             cols = sk.rotation_columns(j)
-            e = euler_from_quat(q[:, k], sk.rotation_order(j))
-            e = np.degrees(np.unwrap(np.radians(e), axis=0))
-            ref = ch[:, cols]
-            ch[:, cols] = e + 360.0 * np.round((ref - e) / 360.0)
+            ch[:, cols] = euler_channels_deg(q[:, k], sk.rotation_order(j), near_deg=ch[:, cols])
     return Motion(sk, ch.reshape(len(frames), sk.n_channels), frame_time, motion.source)
 
 

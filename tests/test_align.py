@@ -55,3 +55,52 @@ def test_coarse_guide_keeps_a_drifting_take_in_a_narrow_band():
     guided = splice(sep.body, sep.hands, side="right", band1=band, coarse="on")
     assert err(guided) < 0.5 * err(plain)
     assert err(guided) < 3.0
+
+
+# -- markers on another timeline ----------------------------------------------------------------
+
+def _ramp_markers(values, fps=120.0):
+    """Markers whose every coordinate is ``values`` (T,), shoulder 2x, heading 0.1x."""
+    from splicer.markers import Markers
+
+    v = np.asarray(values, dtype=float)
+    return Markers(np.broadcast_to(v[:, None, None], (len(v), 4, 3)).copy(), np.stack([2 * v] * 3, axis=1),
+                   0.1 * v, 1, fps, "left")
+
+
+def test_warp_markers_samples_linearly_and_keeps_the_rate_unless_told():
+    from splicer.align import warp_markers
+
+    mk = _ramp_markers([0.0, 10.0, 40.0], fps=30.0)
+    out = warp_markers(mk, np.array([0.5, 1.5, 2.0, 0.0]))
+    # halfway values: (0 + 10) / 2 = 5, (10 + 40) / 2 = 25
+    np.testing.assert_allclose(out.points[:, 0, 0], [5, 25, 40, 0])
+    np.testing.assert_allclose(out.shoulder[:, 2], [10, 50, 80, 0])
+    np.testing.assert_allclose(out.heading, [0.5, 2.5, 4.0, 0.0])
+    assert (out.fps, out.up, out.side) == (30.0, 1, "left")
+    assert warp_markers(mk, np.array([1.0]), fps=60.0).fps == 60.0
+
+
+def test_resample_markers_up_and_down():
+    from splicer.align import resample_markers
+
+    mk = _ramp_markers([0.0, 10.0, 40.0], fps=30.0)
+    assert resample_markers(mk, 30.0) is mk
+    # 30 -> 60 fps: ratio 0.5, floor(2 / 0.5) + 1 = 5 frames at 0, 0.5, 1, 1.5, 2 (no smoothing up)
+    up = resample_markers(mk, 60.0)
+    np.testing.assert_allclose(up.points[:, 3, 1], [0, 5, 10, 25, 40])
+    assert up.fps == 60.0 and up.n_frames == 5
+    # 120 -> 50 fps: ratio 2.4, floor(20 / 2.4) + 1 = 9 frames at 0, 2.4, ..., 19.2; a Gaussian of
+    # sigma 1.2 first (anti-aliasing).  A ramp stays a ramp where the kernel (4 sigma = 5 frames)
+    # does not reach the ends: frames 2.4 x 3 = 7.2 .. 2.4 x 5 = 12.0
+    ramp = _ramp_markers(np.arange(21.0), fps=120.0)
+    down = resample_markers(ramp, 50.0)
+    assert down.n_frames == 9 and down.fps == 50.0
+    np.testing.assert_allclose(down.points[3:6, 0, 0], [7.2, 9.6, 12.0], atol=1e-12)
+    np.testing.assert_allclose(down.heading[3:6], [0.72, 0.96, 1.2], atol=1e-12)
+    # at the first frame the 'nearest' padding pulls the smoothed ramp above 0
+    assert 0.2 < down.points[0, 0, 0] < 1.0
+    # a jitter at the source's Nyquist rate (0, 1, 0, 1 ...) is smoothed to its mean before
+    # sampling; plain decimation by 4 would keep only the zeros
+    jitter = _ramp_markers(np.tile([0.0, 1.0], 50), fps=120.0)
+    np.testing.assert_allclose(resample_markers(jitter, 30.0).points[2:-2, 0, 0], 0.5, atol=0.01)

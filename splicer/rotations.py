@@ -8,7 +8,7 @@ intrinsic product ``R = Rz @ Rx @ Ry``.
 
 Angles: **degrees at the API, radians inside.**  Every function here that takes or returns
 an angle does so in degrees, as BVH files and reports do, and its parameter or function
-name says so (``angles_deg``, ``quat_angle_deg``, ``yaw_quat(angle_deg)``); radians appear
+name says so (``angles_deg``, ``quat_angle_deg``, ``yaw_quat_deg(angle_deg)``); radians appear
 only inside the functions (and in internal arrays whose docstrings say so, such as a
 marker heading).
 
@@ -39,7 +39,7 @@ __all__ = [
     "quat_angle",
     "quat_median",
     "quat_between",
-    "yaw_quat",
+    "yaw_quat_deg",
 ]
 
 
@@ -270,7 +270,7 @@ def quat_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return quat_normalize(q)
 
 
-def yaw_quat(angle_deg: np.ndarray, up: int) -> np.ndarray:
+def yaw_quat_deg(angle_deg: np.ndarray, up: int) -> np.ndarray:
     """Rotations by ``angle_deg`` (degrees) about the coordinate axis ``up`` (0=X, 1=Y, 2=Z)."""
     a = np.radians(np.asarray(angle_deg, dtype=np.float64))
     q = np.zeros(a.shape + (4,))

@@ -116,6 +116,9 @@ def resample_motion(motion: Motion, frames: np.ndarray, frame_time: float) -> Mo
     return Motion(sk, ch.reshape(len(frames), sk.n_channels), frame_time, motion.source)
 
 
+# Random warps for synthetic data (evaluation code, not the alignment or the transfer): outside
+# the mutation-testing scope.
+# pragma: no mutate start
 def smooth_noise(n: int, rng: np.random.Generator, *, sigma: float, dims: tuple[int, ...] = ()) -> np.ndarray:
     """Gaussian-smoothed white noise with unit standard deviation (in expectation).
 
@@ -173,3 +176,4 @@ def smooth_monotone_warp(n: int, rng: np.random.Generator, *, min_speed: float, 
     z = smooth_noise(n, rng, sigma=sigma)
     speed = np.exp(0.5 * (lo + hi) + 0.5 * (hi - lo) * np.tanh(1.5 * z))
     return np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]))])
+# pragma: no mutate end

@@ -7,7 +7,7 @@ from scipy.spatial.transform import Rotation
 
 from splicer.rotations import (euler_channels_deg, euler_from_quat, quat_angle, quat_angle_deg, quat_between,
                                quat_conj, quat_from_euler, quat_from_matrix, quat_hemisphere, quat_median, quat_mul,
-                               quat_normalize, quat_rotate, quat_slerp, quat_to_matrix, yaw_quat)
+                               quat_normalize, quat_rotate, quat_slerp, quat_to_matrix, yaw_quat_deg)
 
 S45 = np.sqrt(0.5)  # cos 45 = sin 45
 I = np.array([1.0, 0, 0, 0])
@@ -180,8 +180,8 @@ def test_between_maps_u_onto_v(rng):
 
 
 def test_yaw_takes_degrees():
-    np.testing.assert_allclose(yaw_quat(90.0, 1), [S45, 0, S45, 0], atol=1e-15)
-    np.testing.assert_allclose(yaw_quat([180.0, 0.0], 2), [[0, 0, 0, 1], [1, 0, 0, 0]], atol=1e-15)
+    np.testing.assert_allclose(yaw_quat_deg(90.0, 1), [S45, 0, S45, 0], atol=1e-15)
+    np.testing.assert_allclose(yaw_quat_deg([180.0, 0.0], 2), [[0, 0, 0, 1], [1, 0, 0, 0]], atol=1e-15)
 
 
 def test_euler_channels_unwrap_and_follow_a_reference():

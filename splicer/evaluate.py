@@ -38,7 +38,7 @@ from .baselines import flat_rotations, generic_dtw_frames, oracle_frames, unifor
 from .errors import SplicerError
 from .model import Motion
 from .roles import find_roles
-from .rotations import quat_angle
+from .rotations import quat_angle_deg
 from .separate import moving_finger_joints, separate
 from .pipeline import splice
 from .timewarp import sample_rotations
@@ -172,7 +172,7 @@ def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | N
             rec["t_merge"] = time.perf_counter() - t0
             rec.update(_alignment_scores(frames, truth))
         rec["t_total"] = time.perf_counter() - t_start
-        rec["finger_deg"] = float(np.mean(quat_angle(q, ref)))
+        rec["finger_deg"] = float(np.mean(quat_angle_deg(q, ref)))
         records.append(rec)
     return records
 

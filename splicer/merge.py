@@ -26,7 +26,12 @@ def pin_constraints(time_map: np.ndarray, pins) -> np.ndarray:
 
     A piecewise-linear correction, zero at both ends and at pins already within tolerance,
     moves each violating pin to the nearest edge of its window; the result is then made
-    non-decreasing.  Frames in hands-frame units.
+    non-decreasing and bounded by the pins' windows (frames before a pin at most its upper
+    edge, frames after it at least its lower edge), so every window holds, a tolerance of 0
+    exactly.  Pins must increase in both coordinates.  Frames in hands-frame units.
+
+    >>> pin_constraints(np.arange(5.0), [(2, 3.0, 0.0)]).tolist()
+    [0.0, 1.5, 3.0, 3.5, 4.0]
     """
     tm = np.array(time_map, dtype=np.float64)
     n = len(tm)
@@ -44,12 +49,18 @@ def pin_constraints(time_map: np.ndarray, pins) -> np.ndarray:
         ds.append(d)
     xs.append(n - 1)
     ds.append(0.0)
-    tm = tm + np.interp(np.arange(n), xs, ds)
-    tm = np.maximum.accumulate(tm)
-    for x, y, t in pins:  # exact at T = 0 even after the monotone fix-up
-        if t == 0:
-            tm[x] = y
-    return np.maximum.accumulate(tm)
+    tm = np.maximum.accumulate(tm + np.interp(np.arange(n), xs, ds))
+    # the running maximum can lift a pinned frame above its window (a steep rise just before
+    # it): bound every frame by the windows of the pins around it.  Both bounds are
+    # non-decreasing, so the clipped map stays non-decreasing and every window holds.
+    lower = np.full(n, -np.inf)
+    upper = np.full(n, np.inf)
+    for x, y, t in pins:
+        lower[x] = max(lower[x], y - t)
+        upper[x] = min(upper[x], y + t)
+    lower = np.maximum.accumulate(lower)
+    upper = np.minimum.accumulate(upper[::-1])[::-1]
+    return np.minimum(np.maximum(tm, lower), upper)
 
 
 def smooth_time_map(per_frame: np.ndarray, *, sigma_frames: float, last: float, pins=()) -> np.ndarray:

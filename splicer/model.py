@@ -15,9 +15,9 @@ from functools import cached_property
 
 import numpy as np
 
-from .rotations import euler_from_quat, quat_from_euler, quat_hemisphere, quat_normalize
+from .rotations import euler_channels_deg, quat_from_euler, quat_hemisphere
 
-__all__ = ["Skeleton", "Motion"]
+__all__ = ["Skeleton", "Motion", "preorder"]
 
 _POS = ("Xposition", "Yposition", "Zposition")
 _ROT = ("Xrotation", "Yrotation", "Zrotation")
@@ -27,6 +27,39 @@ def _readonly(a: np.ndarray, dtype=np.float64) -> np.ndarray:
     a = np.array(a, dtype=dtype, copy=True)
     a.setflags(write=False)
     return a
+
+
+def preorder(parents, start: int | None = None) -> list[int]:
+    """Joints in depth-first pre-order, siblings in index order: the one joint traversal.
+
+    Parameters
+    ----------
+    parents : sequence of int [length J]
+        Parent index of each joint, -1 for a root (any order: children may come first).
+    start : int, optional
+        Visit only ``start`` and the joints below it; None: every tree, roots in index order.
+
+    Returns
+    -------
+    list of int
+        A BVH file lists its joints in this order (a skeleton read from one has
+        ``preorder(parents) == list(range(J))``).
+
+    >>> preorder([-1, 0, 1, 0, 3, 2])
+    [0, 1, 2, 5, 3, 4]
+    >>> preorder([-1, 0, 1, 0, 3, 2], start=1)
+    [1, 2, 5]
+    """
+    kids: dict[int, list[int]] = {}
+    for j, p in enumerate(parents):
+        kids.setdefault(int(p), []).append(j)
+    order: list[int] = []
+    stack = list(reversed(kids.get(-1, []) if start is None else [int(start)]))
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(kids.get(j, [])))
+    return order
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,13 +129,7 @@ class Skeleton:
 
     def descendants(self, j: int) -> list[int]:
         """Indices of all joints below ``j`` (not including ``j``), in file order."""
-        out: list[int] = []
-        stack = list(reversed(self.children[j]))
-        while stack:
-            k = stack.pop()
-            out.append(k)
-            stack.extend(reversed(self.children[k]))
-        return sorted(out)
+        return sorted(preorder(self.parents, start=j)[1:])
 
     def chain(self, j: int) -> list[int]:
         """Joint indices from the root down to ``j`` inclusive."""
@@ -268,8 +295,7 @@ class Motion:
             cols = sk.rotation_columns(j)
             if len(cols) != 3:
                 raise ValueError(f"joint {sk.names[j]!r} has {len(cols)} rotation channels; 3 are needed to set a rotation")
-            e = euler_from_quat(quat_normalize(rotations[:, k]), sk.rotation_order(j))
-            ch[:, cols] = np.degrees(np.unwrap(np.radians(e), axis=0))
+            ch[:, cols] = euler_channels_deg(rotations[:, k], sk.rotation_order(j))
         return self.with_channels(ch)
 
     def with_translations(self, joint: int, xyz: np.ndarray) -> "Motion":

@@ -1,5 +1,10 @@
 """Pictures of an alignment: per side, each pass's local costs inside its band, the user's
-constraint windows and the chosen path (matplotlib, Agg backend, no display needed)."""
+constraint windows and the chosen path.
+
+Drawn on a :class:`matplotlib.figure.Figure` with its own Agg canvas: no pyplot, no global
+figure list, and the caller's matplotlib backend is left as it is.  Each pass's band is one
+image (the local costs sampled on at most ``max_pixels`` per side), so a plot of a long take
+costs no more than a short one."""
 
 from __future__ import annotations
 
@@ -14,12 +19,14 @@ from .errors import SplicerError
 __all__ = ["band_image", "plot_alignment"]
 
 _MAX_PIXELS = 700
+_CELL_BUDGET = 4_000_000  # local costs computed at once for a band image (32 MB of float64)
 
 
 def band_image(pass_result, *, max_pixels: int = _MAX_PIXELS) -> tuple[np.ndarray, float, float]:
     """Local costs of a pass on a grid of at most ``max_pixels`` per side; NaN outside the band.
 
-    Long takes are shown by sampling rows and columns (not by computing every cell again).
+    The local costs of a band of up to 4 million cells are computed in one call; longer takes
+    are shown by sampling rows and columns (not by computing every cell again).
 
     Returns
     -------
@@ -32,8 +39,13 @@ def band_image(pass_result, *, max_pixels: int = _MAX_PIXELS) -> tuple[np.ndarra
     rows = np.unique(np.linspace(0, n - 1, min(n, max_pixels)).round().astype(int))
     cols = np.unique(np.linspace(0, m - 1, min(m, max_pixels)).round().astype(int))
     img = np.full((len(rows), len(cols)), np.nan)
+    if n * band.max_row_width <= _CELL_BUDGET:  # one call for the whole band (kernels start once)
+        whole = pass_result.local_cost(band, 0, n)
+        block = lambda i: whole[i]  # noqa: E731
+    else:  # a long take: only the sampled rows
+        block = lambda i: pass_result.local_cost(band, i, i + 1)[0]  # noqa: E731
     for r, i in enumerate(rows):
-        vals = pass_result.local_cost(band, int(i), int(i) + 1)[0]
+        vals = np.asarray(block(int(i)))
         lo, hi = int(band.lo[i]), int(band.hi[i])
         inside = (cols >= lo) & (cols <= hi)
         img[r, inside] = vals[cols[inside] - lo]
@@ -66,11 +78,12 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     ----------
     result : SpliceResult
     path : path of the PNG to write
+    dpi : int
+        Pixels per inch: the image is ``4.2 x (passes + 1)`` inches wide and ``3.6`` inches
+        high per side.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     from .align import path_median, remap_constraints
 
@@ -78,7 +91,9 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     if not sides:
         raise SplicerError("nothing to plot: no side was aligned")
     ncols = max(sum(p is not None for p in (s.pass1, s.pass2)) for s in sides) + 1
-    fig, axes = plt.subplots(len(sides), ncols, figsize=(4.2 * ncols, 3.6 * len(sides)), squeeze=False)
+    fig = Figure(figsize=(4.2 * ncols, 3.6 * len(sides)))
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(sides), ncols, squeeze=False)
     for row, s in zip(axes, sides):
         n = len(s.hands_frame)
         m = s.hands_markers.n_frames
@@ -110,14 +125,14 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             extra.axis("off")
     fig.tight_layout()
     dest = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".png", dir=dest.parent if str(dest.parent) else ".")
-    os.close(fd)
+    tmp = None
     try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".png", dir=dest.parent if str(dest.parent) else ".")
+        os.close(fd)
         fig.savefig(tmp, dpi=dpi, format="png")
         os.replace(tmp, dest)
     except OSError as e:
         raise SplicerError(f"{dest}: cannot write the plot ({e.strerror or e})") from None
     finally:
-        plt.close(fig)
-        if os.path.exists(tmp):
+        if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)

@@ -5,6 +5,17 @@ shape ``(..., 4)``.  A quaternion ``q`` maps a vector given in a joint's frame t
 parent's frame: ``v_parent = q * v_child * conj(q)``.  Euler angles follow BVH: an order
 string such as ``"ZXY"`` lists the channels as they appear in the file and means the
 intrinsic product ``R = Rz @ Rx @ Ry``.
+
+Angles: **degrees at the API, radians inside.**  Every function here that takes or returns
+an angle does so in degrees, as BVH files and reports do, and its parameter or function
+name says so (``angles_deg``, ``quat_angle_deg``, ``yaw_quat_deg(angle_deg)``); radians appear
+only inside the functions (and in internal arrays whose docstrings say so, such as a
+marker heading).
+
+>>> quat_from_euler([90.0, 0.0, 0.0], "XYZ").round(6).tolist()
+[0.707107, 0.707107, 0.0, 0.0]
+>>> float(quat_angle_deg(quat_from_euler([30.0, 0, 0], "XYZ"), [1.0, 0, 0, 0])) # doctest: +ELLIPSIS
+30.0...
 """
 
 from __future__ import annotations
@@ -14,6 +25,7 @@ import numpy as np
 __all__ = [
     "quat_from_euler",
     "euler_from_quat",
+    "euler_channels_deg",
     "quat_mul",
     "quat_conj",
     "quat_rotate",
@@ -22,10 +34,11 @@ __all__ = [
     "quat_normalize",
     "quat_hemisphere",
     "quat_slerp",
+    "quat_angle_deg",
     "quat_angle",
     "quat_median",
     "quat_between",
-    "yaw_quat",
+    "yaw_quat_deg",
 ]
 
 
@@ -91,6 +104,35 @@ def euler_from_quat(q: np.ndarray, order: str) -> np.ndarray:
     a = np.where(locked, np.arctan2(s * m[..., k, j], m[..., j, j]), np.arctan2(-s * m[..., j, k], m[..., k, k]))
     c = np.where(locked, 0.0, np.arctan2(-s * m[..., i, j], m[..., i, i]))
     return np.degrees(np.stack([a, b, c], axis=-1))
+
+
+def euler_channels_deg(q: np.ndarray, order: str, *, near_deg: np.ndarray | None = None) -> np.ndarray:
+    """Euler angles to write as BVH rotation channels: the one Euler write-back of the package.
+
+    Parameters
+    ----------
+    q : np.ndarray [shape=(T, 4)]
+        One joint's rotations over time (normalised here).
+    order : str
+        The joint's channel order, e.g. ``"ZXY"``.
+    near_deg : np.ndarray [shape=(T, 3)], optional
+        Reference angles (degrees): each angle is moved by a multiple of 360 degrees to lie
+        within 180 degrees of its reference (e.g. the linearly interpolated original channel).
+
+    Returns
+    -------
+    np.ndarray [shape=(T, 3)]
+        Degrees, unwrapped over time (no 360-degree jumps between frames).
+
+    >>> q = quat_from_euler([[170.0, 0, 0], [-170.0, 0, 0]], "XYZ")
+    >>> euler_channels_deg(q, "XYZ").round(6).tolist()
+    [[170.0, 0.0, 0.0], [190.0, 0.0, 0.0]]
+    """
+    e = euler_from_quat(quat_normalize(q), order)
+    e = np.degrees(np.unwrap(np.radians(e), axis=0))
+    if near_deg is not None:
+        e = e + 360.0 * np.round((np.asarray(near_deg, dtype=np.float64) - e) / 360.0)
+    return e
 
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -213,10 +255,22 @@ def quat_slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     return quat_normalize(wa * a + wb * b)
 
 
-def quat_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Geodesic angle between rotations, in degrees, in [0, 180]."""
-    dot = np.abs(np.sum(np.asarray(a, dtype=np.float64) * np.asarray(b, dtype=np.float64), axis=-1))
-    return np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
+def quat_angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Geodesic angle between rotations, in degrees, in [0, 180].
+
+    Computed as ``4 atan2(|a - b'|, |a + b'|)`` with ``b'`` the sign of ``b`` nearer ``a``:
+    exact to rounding near 0 and near 180 degrees, where ``2 acos(|a . b|)`` loses half the
+    digits.  ``a`` and ``b`` are unit quaternions ``(..., 4)`` (broadcasting).
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    b = np.where(np.sum(a * b, axis=-1, keepdims=True) < 0, -b, b)
+    half = np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+    return np.degrees(4.0 * half)
+
+
+#: The same function under its old name (kept so code on other branches keeps working).
+quat_angle = quat_angle_deg
 
 
 def quat_median(q: np.ndarray, axis: int = 0) -> np.ndarray:
@@ -253,9 +307,9 @@ def quat_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return quat_normalize(q)
 
 
-def yaw_quat(angle_rad: np.ndarray, up: int) -> np.ndarray:
-    """Rotations by ``angle_rad`` (radians) about the coordinate axis ``up`` (0=X, 1=Y, 2=Z)."""
-    a = np.asarray(angle_rad, dtype=np.float64)
+def yaw_quat_deg(angle_deg: np.ndarray, up: int) -> np.ndarray:
+    """Rotations by ``angle_deg`` (degrees) about the coordinate axis ``up`` (0=X, 1=Y, 2=Z)."""
+    a = np.radians(np.asarray(angle_deg, dtype=np.float64))
     q = np.zeros(a.shape + (4,))
     q[..., 0] = np.cos(a / 2)
     q[..., 1 + up] = np.sin(a / 2)

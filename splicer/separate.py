@@ -25,7 +25,7 @@ import numpy as np
 from .kinematics import global_transforms
 from .model import Motion, Skeleton
 from .roles import Roles, find_roles
-from .rotations import quat_angle, quat_hemisphere, quat_mul, quat_normalize, quat_slerp, yaw_quat
+from .rotations import quat_angle_deg, quat_hemisphere, quat_mul, quat_normalize, quat_slerp, yaw_quat_deg
 from .timewarp import resample_motion, smooth_monotone_warp, smooth_noise
 
 __all__ = ["Separation", "separate", "finger_joints", "moving_finger_joints", "wrist_rooted"]
@@ -84,7 +84,7 @@ def moving_finger_joints(take: Motion, roles: Roles | None = None, *, min_range_
     if not fj:
         return []
     q = take.rotations[:, fj]
-    dev = quat_angle(q, _mean_rotation(q)[None])
+    dev = quat_angle_deg(q, _mean_rotation(q)[None])
     return [j for j, d in zip(fj, dev.max(axis=0)) if d >= min_range_deg]
 
 
@@ -182,7 +182,7 @@ def separate(take: Motion, *, rng: np.random.Generator, roles: Roles | None = No
     # root: turned about the vertical axis, held near its mean horizontal position
     root = 0
     yaw = rng.uniform(*yaw_deg) * rng.choice([-1.0, 1.0])
-    q[:, root] = quat_mul(yaw_quat(np.full(m, np.radians(yaw)), up), q[:, root])
+    q[:, root] = quat_mul(yaw_quat_deg(np.full(m, float(yaw)), up), q[:, root])
     horiz = [a for a in range(3) if a != up]
     pos = np.array(hands.translations[:, root])
     scale = root_drift if root_drift is not None else 0.02 * max(abs(float(np.mean(take.translations[:, root, up]))), 1.0)

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from .model import Motion, Skeleton
-from .rotations import euler_from_quat, quat_between, quat_mul, quat_normalize
+from .rotations import euler_channels_deg, quat_between, quat_mul
 from .timewarp import smooth_noise
 
 __all__ = ["gesture_skeleton", "make_gesture_take", "FINGER_NAMES"]
@@ -277,8 +277,7 @@ def _channels_from_rotations(sk: Skeleton, q: np.ndarray, root_pos: np.ndarray) 
     ch = np.zeros((T, sk.n_channels))
     for j in range(sk.n_joints):
         cols = sk.rotation_columns(j)
-        e = euler_from_quat(quat_normalize(q[:, j]), sk.rotation_order(j))
-        ch[:, cols] = np.degrees(np.unwrap(np.radians(e), axis=0))
+        ch[:, cols] = euler_channels_deg(q[:, j], sk.rotation_order(j))
     ch[:, sk.position_columns(0)] = root_pos
     return ch
 

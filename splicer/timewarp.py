@@ -12,7 +12,7 @@ import numpy as np
 from .filters import gaussian_filter1d
 
 from .model import Motion
-from .rotations import euler_from_quat, quat_normalize, quat_slerp
+from .rotations import euler_channels_deg, quat_normalize, quat_slerp
 
 __all__ = ["sample_rotations", "sample_linear", "resample_motion", "smooth_noise", "smooth_monotone_warp"]
 
@@ -112,13 +112,13 @@ def resample_motion(motion: Motion, frames: np.ndarray, frame_time: float) -> Mo
         q = sample_rotations(motion.rotations[:, rot3], frames)
         for k, j in enumerate(rot3):
             cols = sk.rotation_columns(j)
-            e = euler_from_quat(q[:, k], sk.rotation_order(j))
-            e = np.degrees(np.unwrap(np.radians(e), axis=0))
-            ref = ch[:, cols]
-            ch[:, cols] = e + 360.0 * np.round((ref - e) / 360.0)
+            ch[:, cols] = euler_channels_deg(q[:, k], sk.rotation_order(j), near_deg=ch[:, cols])
     return Motion(sk, ch.reshape(len(frames), sk.n_channels), frame_time, motion.source)
 
 
+# Random warps for synthetic data (evaluation code, not the alignment or the transfer): outside
+# the mutation-testing scope.
+# pragma: no mutate start
 def smooth_noise(n: int, rng: np.random.Generator, *, sigma: float, dims: tuple[int, ...] = ()) -> np.ndarray:
     """Gaussian-smoothed white noise with unit standard deviation (in expectation).
 
@@ -176,3 +176,4 @@ def smooth_monotone_warp(n: int, rng: np.random.Generator, *, min_speed: float, 
     z = smooth_noise(n, rng, sigma=sigma)
     speed = np.exp(0.5 * (lo + hi) + 0.5 * (hi - lo) * np.tanh(1.5 * z))
     return np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]))])
+# pragma: no mutate end

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kinematics import rest_positions
-from .model import Motion, Skeleton
+from .model import Motion, Skeleton, preorder
 from .roles import FINGERS, ArmRoles
-from .rotations import quat_angle, quat_between, quat_conj, quat_from_matrix, quat_mul, quat_to_matrix
+from .rotations import quat_angle_deg, quat_between, quat_conj, quat_from_matrix, quat_mul, quat_to_matrix
 
 __all__ = ["FingerMap", "finger_map", "hand_frame", "graft_fingers"]
 
@@ -97,7 +97,7 @@ def carried_rotations(hands_q: np.ndarray, fmap: FingerMap) -> np.ndarray:
     """Hands local rotations (T, J, 4) -> body finger rotations (T, K, 4) via ``fmap``."""
     out = []
     C = fmap.conj
-    identity = quat_angle(C, np.array([1.0, 0, 0, 0])) < 1e-6
+    identity = quat_angle_deg(C, np.array([1.0, 0, 0, 0])) < 1e-6
     for group in fmap.hands:
         q = hands_q[:, group[0]]
         for j in group[1:]:
@@ -106,19 +106,6 @@ def carried_rotations(hands_q: np.ndarray, fmap: FingerMap) -> np.ndarray:
             q = quat_mul(quat_mul(C[None], q), quat_conj(C)[None])
         out.append(q)
     return np.stack(out, axis=1) if out else np.zeros((hands_q.shape[0], 0, 4))
-
-
-def _preorder(parents: list[int]) -> list[int]:
-    kids: dict[int, list[int]] = {}
-    for j, p in enumerate(parents):
-        kids.setdefault(p, []).append(j)
-    order: list[int] = []
-    stack = list(reversed(kids.get(-1, [])))
-    while stack:
-        j = stack.pop()
-        order.append(j)
-        stack.extend(reversed(kids.get(j, [])))
-    return order
 
 
 def graft_fingers(body: Motion, body_arm: ArmRoles, hands_sk: Skeleton, hands_arm: ArmRoles,
@@ -177,7 +164,7 @@ def graft_fingers(body: Motion, body_arm: ArmRoles, hands_sk: Skeleton, hands_ar
         channels.append(rot_ch)
         es = hands_sk.end_sites[hj]
         ends.append(es if np.any(np.isnan(es)) else scale * (C @ es))
-    order = _preorder(parents)
+    order = preorder(parents)
     pos = {old: k for k, old in enumerate(order)}
     new_sk = Skeleton(
         tuple(names[o] for o in order),

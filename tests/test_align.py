@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from splicer.align import compose, guided_band, path_median, remap_constraints
-from splicer.dtw import Constraint, dtw
+from splicer.dtw import Constraint, dtw, make_band
 from splicer.errors import BandError
 from splicer.separate import separate
 from splicer import splice
@@ -55,3 +55,142 @@ def test_coarse_guide_keeps_a_drifting_take_in_a_narrow_band():
     guided = splice(sep.body, sep.hands, side="right", band1=band, coarse="on")
     assert err(guided) < 0.5 * err(plain)
     assert err(guided) < 3.0
+
+
+# -- markers on another timeline ----------------------------------------------------------------
+
+def _ramp_markers(values, fps=120.0):
+    """Markers whose every coordinate is ``values`` (T,), shoulder 2x, heading 0.1x."""
+    from splicer.markers import Markers
+
+    v = np.asarray(values, dtype=float)
+    return Markers(np.broadcast_to(v[:, None, None], (len(v), 4, 3)).copy(), np.stack([2 * v] * 3, axis=1),
+                   0.1 * v, 1, fps, "left")
+
+
+def test_warp_markers_samples_linearly_and_keeps_the_rate_unless_told():
+    from splicer.align import warp_markers
+
+    mk = _ramp_markers([0.0, 10.0, 40.0], fps=30.0)
+    out = warp_markers(mk, np.array([0.5, 1.5, 2.0, 0.0]))
+    # halfway values: (0 + 10) / 2 = 5, (10 + 40) / 2 = 25
+    np.testing.assert_allclose(out.points[:, 0, 0], [5, 25, 40, 0])
+    np.testing.assert_allclose(out.shoulder[:, 2], [10, 50, 80, 0])
+    np.testing.assert_allclose(out.heading, [0.5, 2.5, 4.0, 0.0])
+    assert (out.fps, out.up, out.side) == (30.0, 1, "left")
+    assert warp_markers(mk, np.array([1.0]), fps=60.0).fps == 60.0
+
+
+def test_resample_markers_up_and_down():
+    from splicer.align import resample_markers
+
+    mk = _ramp_markers([0.0, 10.0, 40.0], fps=30.0)
+    assert resample_markers(mk, 30.0) is mk
+    # 30 -> 60 fps: ratio 0.5, floor(2 / 0.5) + 1 = 5 frames at 0, 0.5, 1, 1.5, 2 (no smoothing up)
+    up = resample_markers(mk, 60.0)
+    np.testing.assert_allclose(up.points[:, 3, 1], [0, 5, 10, 25, 40])
+    assert up.fps == 60.0 and up.n_frames == 5
+    # 120 -> 50 fps: ratio 2.4, floor(20 / 2.4) + 1 = 9 frames at 0, 2.4, ..., 19.2; a Gaussian of
+    # sigma 1.2 first (anti-aliasing).  A ramp stays a ramp where the kernel (4 sigma = 5 frames)
+    # does not reach the ends: frames 2.4 x 3 = 7.2 .. 2.4 x 5 = 12.0
+    ramp = _ramp_markers(np.arange(21.0), fps=120.0)
+    down = resample_markers(ramp, 50.0)
+    assert down.n_frames == 9 and down.fps == 50.0
+    np.testing.assert_allclose(down.points[3:6, 0, 0], [7.2, 9.6, 12.0], atol=1e-12)
+    np.testing.assert_allclose(down.heading[3:6], [0.72, 0.96, 1.2], atol=1e-12)
+    # at the first frame the 'nearest' padding pulls the smoothed ramp above 0
+    assert 0.2 < down.points[0, 0, 0] < 1.0
+    # a jitter at the source's Nyquist rate (0, 1, 0, 1 ...) is smoothed to its mean before
+    # sampling; plain decimation by 4 would keep only the zeros
+    jitter = _ramp_markers(np.tile([0.0, 1.0], 50), fps=120.0)
+    np.testing.assert_allclose(resample_markers(jitter, 30.0).points[2:-2, 0, 0], 0.5, atol=0.01)
+
+
+# -- the two passes on small known warps (unit tests: fractions of a second) -------------------
+
+def _arm(n, fps=30.0, seed=0):
+    """Markers of a smooth made-up arm motion: every coordinate a sinusoid (cm), 30 fps."""
+    from splicer.markers import Markers
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / fps
+    pts = np.zeros((n, 4, 3))
+    for k in range(4):
+        for a in range(3):
+            f, p, amp = rng.uniform(0.3, 1.2), rng.uniform(0, 6.3), rng.uniform(5, 20)
+            pts[:, k, a] = amp * np.sin(2 * np.pi * f * t + p) + 10 * k
+    return Markers(pts, np.zeros((n, 3)), np.zeros(n), 1, fps, "left")
+
+
+def _warped(n=90, m=110):
+    """Body markers and hands markers that show body frame w(j) = 89 (j / 109)^1.2 at frame j;
+    the true hands frame of each body frame is the inverse of w."""
+    from splicer.align import warp_markers
+
+    body = _arm(n)
+    w = (n - 1) * (np.arange(m) / (m - 1)) ** 1.2
+    return body, warp_markers(body, w), np.interp(np.arange(n), w, np.arange(m))
+
+
+def _path_cost(pr):
+    local = pr.local_cost(pr.band, 0, pr.band.n)
+    return sum(local[i, j - pr.band.lo[i]] for i, j in pr.path)
+
+
+def test_pass1_of_identical_takes_is_the_diagonal_at_zero_cost():
+    from splicer.align import pass1
+
+    body = _arm(90)
+    pr = pass1(body, body, width=10.0)
+    np.testing.assert_array_equal(pr.path, np.stack([np.arange(90)] * 2, axis=1))
+    assert pr.cost == 0.0 and pr.name == "pass1" and pr.band.width == 10.0
+
+
+def test_pass1_recovers_a_known_warp_and_honours_a_pin():
+    from splicer.align import pass1, path_median
+
+    body, hands, truth = _warped()
+    pr = pass1(body, hands, width=20.0)
+    err = np.abs(path_median(pr.path, 90) - truth)
+    assert err.max() <= 3.0 and err.mean() <= 0.5  # measured 2.54 and 0.37 hands frames
+    assert pr.cost == pytest.approx(_path_cost(pr))  # the cost is the path's sum of local costs
+    seen = []
+    pinned = pass1(body, hands, width=20.0, constraints=[Constraint(45, 60, 0)], progress=seen.append)
+    assert pinned.path[pinned.path[:, 0] == 45, 1].tolist() == [60]  # truth 61.7; the pin rules
+    assert seen and seen[-1] == 1.0 and seen == sorted(seen)
+    # the coarse guide (10 fps, 40-frame band) finds the same path in a band around it
+    guided = pass1(body, hands, width=20.0, coarse_fps=10.0, coarse_width=40.0)
+    np.testing.assert_array_equal(guided.path, pr.path)
+    assert guided.band.max_row_width != pr.band.max_row_width  # not the diagonal band
+
+
+def test_pass2_of_identical_takes_and_its_weights():
+    from splicer.align import pass2, path_median, warp_markers
+
+    body = _arm(90)
+    pr = pass2(body, body, width=5.0)
+    np.testing.assert_array_equal(pr.path, np.stack([np.arange(90)] * 2, axis=1))
+    assert pr.cost < 1e-5 and pr.name == "pass2"  # palm angles of identical markers: 0 (rounding)
+    body, hands, truth = _warped()
+    on_truth = warp_markers(hands, truth)  # the hands on the body timeline: pass 2 stays diagonal
+    pr = pass2(body, on_truth, width=8.0, diagonal_weight=2.0)
+    assert np.abs(path_median(pr.path, 90) - np.arange(90)).max() == 0.0
+    assert pr.cost == pytest.approx(_path_cost(pr))
+    with_d1 = pass2(body, on_truth, width=8.0, d1_weight=1.0)
+    assert with_d1.cost == pytest.approx(_path_cost(with_d1)) and with_d1.cost > pr.cost
+
+
+def test_pass2_cost_adds_the_departure_penalty_and_normalised_d1():
+    from splicer.align import _pass2_cost
+
+    band = make_band(5, 9, 4.0)
+    d2 = lambda b, i0, i1: np.zeros((i1 - i0, b.max_row_width))  # noqa: E731
+    d1 = lambda b, i0, i1: np.full((i1 - i0, b.max_row_width), 24.0)  # noqa: E731
+    # weight 2 rad per band width 4: row i, column j costs 2 |j - 2 i| / 4 (centre 8 i / 4 = 2 i);
+    # D1 = 24 counts d1_weight x 24 / 24 = 0.5
+    out = _pass2_cost(d2, d1, 4.0, 2.0, 0.5)(band, 1, 3)
+    for r, i in enumerate((1, 2)):
+        cols = band.lo[i] + np.arange(out.shape[1])
+        np.testing.assert_allclose(out[r], 0.5 + 2.0 * np.abs(cols - 2 * i) / 4.0)
+    np.testing.assert_array_equal(_pass2_cost(d2, d1, 4.0, 0.0, 0.0)(band, 0, 5), 0.0)
+    np.testing.assert_array_equal(_pass2_cost(d2, None, 4.0, 0.0, 1.0)(band, 0, 5), 0.0)

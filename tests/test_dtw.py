@@ -369,8 +369,8 @@ def test_inputs_not_modified(rng):
 
 
 @pytest.mark.parametrize("spec,expected", [
-    (120, 120.0), (1.0, 1.0), (0.3, 30.0), ("30%", 30.0), ("120", 120.0), ("120f", 120.0),
-    (" 2.5s ", 300.0), ("0.3", 30.0),
+    (120, 120.0), (1.0, 1.0), (1, 1.0), (2.5, 2.5), ("30%", 30.0), ("120", 120.0), ("120f", 120.0),
+    (" 2.5s ", 300.0), ("0.3%", 0.3), (np.int64(7), 7.0),
 ])
 def test_band_frames(spec, expected):
     assert band_frames(spec, n=100, fps=120.0) == pytest.approx(expected)
@@ -378,7 +378,9 @@ def test_band_frames(spec, expected):
 
 @pytest.mark.parametrize("spec,match", [
     ("20s", "frame rate"), ("abc", "cannot parse"), (0, "positive"), (-3, "positive"),
-    (float("nan"), "positive"), (True, "number"), ("0%", "positive"),
+    (float("nan"), "positive"), (True, "number"), ("0%", "positive"), ("0s", "positive"),
+    (0.3, "less than one frame.*'30%'"), (0.999, "less than one frame.*'99.9%'"), ("0.3", "less than one frame"),
+    ("0.5f", "less than one frame"), (float("inf"), "positive"), (None, "number"), ("3 m", "cannot parse"),
 ])
 def test_band_frames_errors(spec, match):
     with pytest.raises(ConstraintError, match=match):

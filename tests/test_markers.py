@@ -7,12 +7,12 @@ from splicer.bvh import read_bvh
 from splicer.kinematics import global_transforms
 from splicer.markers import arm_markers
 from splicer.roles import find_roles
-from splicer.rotations import quat_mul, quat_rotate, yaw_quat
+from splicer.rotations import quat_mul, quat_rotate, yaw_quat_deg
 
 
 def _turn_root(m, angle_deg, up=1):
     """The motion turned about the up axis through the origin (root rotation and position)."""
-    q = yaw_quat(np.radians(angle_deg), up)
+    q = yaw_quat_deg(angle_deg, up)
     rot = quat_mul(q[None], m.rotations[:, 0])
     m2 = m.with_rotations([0], rot[:, None])
     return m2.with_translations(0, quat_rotate(q[None], m.translations[:, 0])), q

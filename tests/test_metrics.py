@@ -7,7 +7,7 @@ from splicer.dtw import make_band
 from splicer.markers import Markers
 from splicer.metrics import (d1_cost, d1_reference, d2_cost, d2_reference, kgp_theta, palm_features,
                              phase_features, window_points)
-from splicer.rotations import quat_rotate, yaw_quat
+from splicer.rotations import quat_rotate, yaw_quat_deg
 
 
 def _markers(rng, T, up=1, fps=30.0):
@@ -45,7 +45,7 @@ def test_d2_kernel_matches_reference(rng):
 def test_theta_undoes_a_known_turn(rng, up, angle):
     """Turning the hands by +angle about the up axis: theta is -angle, so R(theta) turns them back."""
     pts = rng.normal(size=(9, 4, 3))
-    q = yaw_quat(np.radians(angle), up)
+    q = yaw_quat_deg(angle, up)
     turned = quat_rotate(q, pts) + np.array([3.0, -2.0, 5.0])  # and moved
     wb, wh = window_points(pts, up), window_points(turned, up)
     assert np.degrees(kgp_theta(wb[4], wh[4])) == pytest.approx(-angle, abs=1e-9)
@@ -53,7 +53,7 @@ def test_theta_undoes_a_known_turn(rng, up, angle):
 
 def test_d1_invariant_to_turning_the_hands(rng):
     mk = _markers(rng, 60)
-    q = yaw_quat(np.radians(40.0), 1)
+    q = yaw_quat_deg(40.0, 1)
     turned = Markers(quat_rotate(q, mk.points), quat_rotate(q, mk.shoulder), mk.heading + np.radians(40.0), 1, 30.0, "left")
     body = phase_features(_markers(rng, 50))
     band = make_band(50, 60, 30.0)

@@ -10,7 +10,7 @@ from splicer.constraints import parse_config
 from splicer.errors import ConstraintError, SplicerError
 from splicer.model import Skeleton, Motion
 from splicer.roles import find_roles
-from splicer.rotations import quat_angle, quat_mul, quat_rotate, yaw_quat
+from splicer.rotations import quat_angle, quat_mul, quat_rotate, yaw_quat_deg
 from splicer.separate import separate
 from splicer import splice
 from splicer.synth import make_gesture_take
@@ -39,7 +39,7 @@ def _flat_fingers(take, roles):
 
 
 def _turned(m, angle_deg, up=1):
-    q = yaw_quat(np.radians(angle_deg), up)
+    q = yaw_quat_deg(angle_deg, up)
     m2 = m.with_rotations([0], quat_mul(q[None], m.rotations[:, 0])[:, None])
     return m2.with_translations(0, quat_rotate(q[None], m.translations[:, 0]))
 

@@ -1,0 +1,208 @@
+"""Worked answers for splicer.transfer: the rest hand frame, finger pairing, carrying rotations
+between axis conventions and grafting fingers onto a body without any (ALGORITHM.md section 7).
+
+The two rigs below are the same left hand in two conventions: the body's hand points along
++X with the thumb side towards +Z (a Mixamo-like T-pose); the hands file's points along -Z
+with the thumb side towards +X (a Leap-like hand).  A body offset (a, b, c) is the hands
+offset (c, b, -a), and the rotation taking the hands' hand frame onto the body's is
+``C = R_y(-90 deg)``: (x, y, z) -> (-z, y, x), quaternion (cos 45, 0, -sin 45, 0).
+"""
+
+import numpy as np
+import pytest
+
+from splicer.model import Motion, Skeleton
+from splicer.roles import ArmRoles
+from splicer.rotations import quat_angle, quat_from_euler, quat_to_matrix
+from splicer.transfer import carried_rotations, finger_map, graft_fingers, hand_frame
+
+ROT = ("Zrotation", "Xrotation", "Yrotation")
+ROOT = ("Xposition", "Yposition", "Zposition") + ROT
+
+# body-convention finger offsets from the wrist (base) and along the finger
+BASES = {"thumb": (2.0, 0.0, 3.0), "index": (9.0, 0.0, 2.0), "middle": (10.0, 0.0, 0.0),
+         "ring": (9.5, 0.0, -1.0), "pinky": (9.0, 0.0, -2.0)}
+SEG = (3.0, 0.0, 0.0)
+C_QUAT = np.array([np.cos(np.pi / 4), 0.0, -np.sin(np.pi / 4), 0.0])
+
+
+def _to_hands(v):
+    a, b, c = v
+    return (c, b, -a)
+
+
+def _body(fingers=("thumb", "index", "middle", "ring", "pinky"), pinky3_channels=ROT):
+    """Hips -> LeftArm -> LeftForeArm -> LeftHand -> fingers (3 segments each), Hips -> Neck."""
+    names, parents, offsets, channels = ["Hips", "LeftArm", "LeftForeArm", "LeftHand"], [-1, 0, 1, 2], \
+        [(0, 100, 0), (10, 40, 0), (25, 0, 0), (25, 0, 0)], [ROOT, ROT, ROT, ROT]
+    chains = {}
+    for f in fingers:
+        chain = []
+        for s in range(3):
+            chain.append(len(names))
+            names.append(f"LeftHand{f.title()}{s + 1}")
+            parents.append(3 if s == 0 else chain[-2])
+            offsets.append(BASES[f] if s == 0 else SEG)
+            channels.append(pinky3_channels if (f, s) == ("pinky", 2) else ROT)
+        chains[f] = tuple(chain)
+    names.append("Neck")
+    parents.append(0)
+    offsets.append((0, 50, 0))
+    channels.append(ROT)
+    sk = Skeleton(tuple(names), np.array(parents), np.array(offsets, float), tuple(channels), None)
+    return sk, ArmRoles("left", 3, 2, 1, chains)
+
+
+def _hands(fingers=("thumb", "index", "middle", "ring", "pinky")):
+    """LeftForeArm (root) -> LeftHand -> fingers in the -Z convention; the thumb base is a
+    two-axis knuckle: two joints at the same place (the second with a zero offset)."""
+    names, parents, offsets, channels = ["LeftForeArm", "LeftHand"], [-1, 0], \
+        [(0, 0, 0), _to_hands((25, 0, 0))], [ROOT, ROT]
+    chains = {}
+    for f in fingers:
+        chain = []
+        segs = [BASES[f], (0, 0, 0), SEG, SEG] if f == "thumb" else [BASES[f], SEG, SEG]
+        for s, off in enumerate(segs):
+            chain.append(len(names))
+            names.append(f"h_{f}{s}")
+            parents.append(1 if s == 0 else chain[-2])
+            offsets.append(_to_hands(off))
+            channels.append(ROT)
+        chains[f] = tuple(chain)
+    end_sites = np.full((len(names), 3), np.nan)
+    end_sites[chains["index"][-1]] = _to_hands((2.0, 0.0, 0.0)) if "index" in chains else np.nan
+    sk = Skeleton(tuple(names), np.array(parents), np.array(offsets, float), tuple(channels), end_sites)
+    return sk, ArmRoles("left", 1, 0, None, chains)
+
+
+def test_hand_frame_columns_are_long_radial_and_palm_normal():
+    # body: long axis wrist -> middle base = +X; radial = index - pinky base = (0, 0, 4) -> +Z;
+    # normal = X x Z = -Y
+    sk, arm = _body()
+    np.testing.assert_allclose(hand_frame(sk, arm), [[1, 0, 0], [0, 0, -1], [0, 1, 0]], atol=1e-12)
+    # hands: long -Z, radial (4, 0, 0) -> +X, normal (-Z) x X = -Y
+    hk, harm = _hands()
+    np.testing.assert_allclose(hand_frame(hk, harm), [[0, 1, 0], [0, 0, -1], [-1, 0, 0]], atol=1e-12)
+
+
+def test_hand_frame_falls_back_to_the_thumb_and_ring_and_to_any_perpendicular():
+    # no index and no pinky: radial = thumb base (2, 0, 3), ulnar = ring base (9.5, 0, -1):
+    # v = (-7.5, 0, 4); minus its +X part -> (0, 0, 4) -> +Z: the same frame
+    sk, arm = _body(fingers=("thumb", "middle", "ring"))
+    np.testing.assert_allclose(hand_frame(sk, arm), [[1, 0, 0], [0, 0, -1], [0, 1, 0]], atol=1e-12)
+    # a middle finger only: no across-the-palm axis; u = +X is not vertical, so
+    # v = u x (0, 1, 0) = +Z
+    sk, arm = _body(fingers=("middle",))
+    np.testing.assert_allclose(hand_frame(sk, arm), [[1, 0, 0], [0, 0, -1], [0, 1, 0]], atol=1e-12)
+
+
+def test_finger_map_pairs_segments_merges_two_axis_knuckles_and_finds_C():
+    sk, arm = _body()
+    hk, harm = _hands()
+    fm = finger_map(sk, arm, hk, harm)
+    # body joints in FINGERS order, every segment (all have three rotation channels)
+    assert fm.body == tuple(j for f in ("thumb", "index", "middle", "ring", "pinky") for j in arm.fingers[f])
+    t = harm.fingers["thumb"]
+    assert fm.hands[:3] == ((t[0], t[1]), (t[2],), (t[3],))  # the zero-offset joint joins its parent
+    assert fm.hands[3:6] == tuple((j,) for j in harm.fingers["index"])
+    assert quat_angle(fm.conj, C_QUAT) == pytest.approx(0.0, abs=1e-5)
+
+
+def test_finger_map_skips_fingers_missing_on_either_side_and_joints_without_three_axes():
+    sk, arm = _body(pinky3_channels=("Zrotation",))
+    hk, harm = _hands(fingers=("thumb", "index", "middle", "pinky"))  # no ring in the hands file
+    fm = finger_map(sk, arm, hk, harm)
+    want = [*arm.fingers["thumb"], *arm.fingers["index"], *arm.fingers["middle"], *arm.fingers["pinky"][:2]]
+    assert list(fm.body) == want
+    assert fm.hands[-2:] == tuple((j,) for j in harm.fingers["pinky"][:2])
+
+
+def test_carried_rotations_turn_the_axis_by_C_and_compose_knuckles():
+    sk, arm = _body()
+    hk, harm = _hands()
+    fm = finger_map(sk, arm, hk, harm)
+    T = 2
+    q = np.zeros((T, hk.n_joints, 4))
+    q[..., 0] = 1.0
+    # hands thumb knuckle: 20 then 30 degrees about hands +X (the radial axis): composed, a
+    # 50-degree turn about hands +X = body +Z (C maps (1, 0, 0) to (0, 0, 1))
+    t = harm.fingers["thumb"]
+    q[:, t[0]] = quat_from_euler(np.array([20.0, 0, 0]), "XYZ")
+    q[:, t[1]] = quat_from_euler(np.array([30.0, 0, 0]), "XYZ")
+    # hands index base: 40 degrees about hands +Z = body -X (C maps (0, 0, 1) to (-1, 0, 0))
+    q[:, harm.fingers["index"][0]] = quat_from_euler(np.array([0, 0, 40.0]), "XYZ")
+    out = carried_rotations(q, fm)
+    assert out.shape == (T, len(fm.body), 4)
+    np.testing.assert_allclose(quat_angle(out[:, 0], quat_from_euler(np.array([0, 0, 50.0]), "XYZ")), 0, atol=1e-5)
+    np.testing.assert_allclose(quat_angle(out[:, 3], quat_from_euler(np.array([-40.0, 0, 0]), "XYZ")), 0, atol=1e-5)
+    np.testing.assert_allclose(quat_angle(out[:, 4], np.array([1.0, 0, 0, 0])), 0, atol=1e-5)
+
+
+def test_carried_rotations_are_copied_when_the_conventions_agree():
+    sk, arm = _body()
+    fm = finger_map(sk, arm, sk, arm)
+    assert quat_angle(fm.conj, np.array([1.0, 0, 0, 0])) < 1e-6
+    rng = np.random.default_rng(3)
+    q = rng.standard_normal((4, sk.n_joints, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    out = carried_rotations(q, fm)
+    np.testing.assert_array_equal(out, q[:, list(fm.body)])
+    assert carried_rotations(q, type(fm)((), (), fm.conj)).shape == (4, 0, 4)
+
+
+def test_graft_puts_the_hands_fingers_under_the_wrist_turned_and_scaled():
+    body_sk, _ = _body(fingers=())
+    arm = ArmRoles("left", 3, 2, 1, {})
+    hk, harm = _hands(fingers=("thumb", "index"))
+    T = 3
+    ch = np.arange(T * body_sk.n_channels, dtype=float).reshape(T, -1)
+    body = Motion(body_sk, ch, 1 / 30)
+    out, new_arm = graft_fingers(body, arm, hk, harm, 2.0)
+    sk = out.skeleton
+    # preorder: the fingers follow the wrist, the Neck (a later child of the root) comes last
+    assert sk.names == ("Hips", "LeftArm", "LeftForeArm", "LeftHand", "h_thumb0", "h_thumb1", "h_thumb2",
+                        "h_thumb3", "h_index0", "h_index1", "h_index2", "Neck")
+    assert sk.parents.tolist() == [-1, 0, 1, 2, 3, 4, 5, 6, 3, 8, 9, 0]
+    # C takes the hands forearm (-Z) onto the body's (+X): hands (c, b, -a) -> (a, b, c), x 2
+    np.testing.assert_allclose(sk.offsets[4], 2 * np.array(BASES["thumb"]), atol=1e-12)
+    np.testing.assert_allclose(sk.offsets[5], [0, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(sk.offsets[8], 2 * np.array(BASES["index"]), atol=1e-12)
+    np.testing.assert_allclose(sk.offsets[9], 2 * np.array(SEG), atol=1e-12)
+    np.testing.assert_allclose(sk.end_sites[10], [4.0, 0, 0], atol=1e-12)
+    assert np.isnan(sk.end_sites[9]).all()
+    assert all(sk.channels[j] == ROT for j in range(4, 11))
+    # body channels copied, new joints at identity (zeros), Neck's columns moved to the end
+    np.testing.assert_array_equal(out.channels[:, :15], ch[:, :15])
+    np.testing.assert_array_equal(out.channels[:, 15:36], 0.0)
+    np.testing.assert_array_equal(out.channels[:, 36:], ch[:, 15:])
+    assert new_arm.wrist == 3 and new_arm.elbow == 2 and new_arm.upper_arm == 1
+    assert new_arm.fingers == {"thumb": (4, 5, 6, 7), "index": (8, 9, 10)}
+    assert out.frame_time == body.frame_time
+
+
+def test_graft_renames_clashes_and_keeps_C_identity_for_the_same_convention():
+    body_sk, _ = _body(fingers=())
+    arm = ArmRoles("left", 3, 2, 1, {})
+    # a hands file in the body's own convention whose finger is called like a body joint
+    names = ("LeftForeArm", "LeftHand", "Neck", "Neck2")
+    hk = Skeleton(names, np.array([-1, 0, 1, 2]), np.array([(0, 0, 0), (25, 0, 0), BASES["index"], SEG]),
+                  (ROOT, ROT, ("Xrotation", "Yrotation", "Zrotation"), ()), None)
+    harm = ArmRoles("left", 1, 0, None, {"index": (2, 3)})
+    body = Motion(body_sk, np.zeros((2, body_sk.n_channels)), 1 / 30)
+    out, new_arm = graft_fingers(body, arm, hk, harm, 1.0)
+    sk = out.skeleton
+    assert sk.names[4:6] == ("Neck_2", "Neck2") and sk.names[-1] == "Neck"
+    np.testing.assert_allclose(sk.offsets[4], BASES["index"], atol=1e-12)
+    # the hands' own channel order is kept; a joint without channels gets Z X Y rotations
+    assert sk.channels[4] == ("Xrotation", "Yrotation", "Zrotation") and sk.channels[5] == ROT
+
+
+def test_graft_of_a_wrist_rooted_hand_uses_its_long_axis():
+    body_sk, _ = _body(fingers=())
+    arm = ArmRoles("left", 3, 2, 1, {})
+    hk, harm = _hands(fingers=("index", "middle", "pinky"))
+    harm = ArmRoles("left", 1, None, None, harm.fingers)  # no forearm: the hand's long axis
+    body = Motion(body_sk, np.zeros((1, body_sk.n_channels)), 1 / 30)
+    out, _ = graft_fingers(body, arm, hk, harm, 1.0)
+    np.testing.assert_allclose(out.skeleton.offsets[4], BASES["index"], atol=1e-12)
+    np.testing.assert_allclose(quat_to_matrix(C_QUAT) @ hk.offsets[3], SEG, atol=1e-12)

@@ -266,7 +266,7 @@ def evaluate_scenarios(takes, scenarios=SCENARIOS, *, seeds=range(100, 105), met
     for name in scenarios:
         sc = scenario(name)
         for take in takes:
-            tname = Path(take.source).name if take.source else "synthetic"
+            tname = Path(take.source).name if take.source and not take.source.startswith("synth") else "synthetic"
             for seed in seeds:
                 t0 = time.perf_counter()
                 sep = make_scenario(take, sc, rng=np.random.default_rng(seed), **separation)
@@ -344,3 +344,46 @@ def overview_markdown(runs: pd.DataFrame, method: str = "splice (smooth time map
                      f"{mm['align_p95_s'].mean():.3f} (max {mm['align_p95_s'].max():.3f}) | "
                      f"{mm['finger_deg'].mean():.2f} | {gd:.2f} | {orc:.2f} |")
     return "\n".join(lines) + "\n"
+
+
+def scenario_cli(args, params, err) -> int:
+    """``splicer-evaluate --scenario NAME`` / ``--scenarios all`` (called by :func:`splicer.evaluate.main`)."""
+    from .evaluate import default_takes
+    from .synth import make_gesture_take
+
+    names = list(SCENARIOS) if args.scenarios == "all" else []
+    names += [n for n in (args.scenario or []) if n not in names]
+    try:
+        for nm in names:
+            scenario(nm)
+        takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds, note=lambda m: (print(m), err(m)))
+        if args.synthetic and not all(t.source and t.source.startswith("synth") for t in takes):
+            takes.append(make_gesture_take(args.synthetic_seconds, 30.0, np.random.default_rng(0)))
+        runs = evaluate_scenarios(takes, names, seeds=range(args.seed0, args.seed0 + args.seeds),
+                                  generic_window=args.generic_window, progress=err, amplitude=params.amplitude,
+                                  yaw_deg=params.yaw_deg, noise_deg=params.noise_deg,
+                                  warp_sigma_s=params.warp_sigma_s)
+    except (SplicerError, ValueError) as e:
+        err(f"splicer-evaluate: {e}")
+        return 1
+    table = summarize_scenarios(runs)
+    takes_txt = ", ".join(f"{Path(t.source).name if t.source and not t.source.startswith('synth') else 'synthetic'} "
+                          f"({t.n_frames} frames @ {t.fps:g} fps)" for t in takes)
+    seeds = sorted(set(runs["seed"]))
+    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Cells: mean over runs (worst run). "
+              "Alignment error in seconds of the performance (frames = seconds x body fps) over body frames "
+              "the hands cover; finger error in degrees over covered frames.\n")
+    parts = [header]
+    for nm in dict.fromkeys(runs["scenario"]):
+        parts.append(f"\n### {nm}\n\n" + scenario_markdown(table, nm))
+    parts.append("\n### splice (smooth time map), per scenario and take\n\n" + overview_markdown(runs))
+    text = "".join(parts)
+    print(text)
+    if args.out:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        table.round(5).to_csv(out.with_suffix(".csv"))
+        runs.round(5).to_csv(out.parent / (out.name + "_runs.csv"), index=False)
+        out.with_suffix(".md").write_text("# Scenarios (splicer-evaluate --scenario)\n\n" + text, encoding="utf-8")
+        err(f"wrote {out.with_suffix('.csv')}, {out.name}_runs.csv and {out.with_suffix('.md')}")
+    return 0

@@ -109,8 +109,11 @@ def generic_dtw_frames(body: Motion, hands: Motion, body_arm: ArmRoles, hands_ar
     if window is not None:
         kwargs["window"] = int(window)
     if open_ends:
-        _, paths = dtw_ndim.warping_paths(s1, s2, psi=(0, 0, len(s2), len(s2)), **kwargs)
-        path = np.asarray(dtw.best_path(paths), dtype=np.int64)
+        _, paths = dtw_ndim.warping_paths(s1, s2, psi=(0, 0, len(s2), len(s2)), psi_neg=False, **kwargs)
+        # end at the cheapest cell of the last body row (dtaidistance's own choice of the end
+        # can drop the last body row when it marks the relaxed cells with -1)
+        col = 1 + int(np.argmin(paths[-1, 1:]))
+        path = np.asarray(dtw.best_path(paths, row=paths.shape[0] - 1, col=col), dtype=np.int64)
     else:
         path = np.asarray(dtw_ndim.warping_path(s1, s2, **kwargs), dtype=np.int64)
     per_frame = path_median(path, body.n_frames)

@@ -5,6 +5,8 @@ Per run (take x scenario x seed x method), over both sides' body frames:
 * alignment error (:func:`splicer.scenarios.alignment_error_s`), over the frames the truth
   covers and the method gives a hands frame for: mean, 95th percentile and maximum, in
   seconds and in body frames (seconds x body fps); the share within 0.05 s and 0.1 s;
+* pause window: mean and maximum error over the body frames from each pause's start to 3 s
+  after its end (the issue saw the time map lag for seconds after a pause);
 * ``missing``: share of covered frames the method gives no hands frame for (NaN in its
   ``hands_frame`` or inside its reported ``uncovered`` ranges) — they keep the body's own
   fingers, which the finger error charges;
@@ -44,7 +46,7 @@ from .splice import splice
 from .timewarp import sample_rotations
 
 __all__ = ["SCENARIO_METHODS", "SCENARIO_METRICS", "ranges_mask", "report_flags", "flag_scores",
-           "uncovered_scores", "alignment_scores", "evaluate_scenario_pair", "evaluate_scenarios",
+           "uncovered_scores", "alignment_scores", "pause_scores", "evaluate_scenario_pair", "evaluate_scenarios",
            "summarize_scenarios", "scenario_markdown"]
 
 #: splice options of each splice-based method (the current defaults: fixed ends)
@@ -63,6 +65,8 @@ SCENARIO_METRICS = {
     "align_p95_f": ("align p95 (frames)", "max"),
     "within_50ms": ("within 0.05 s (%)", "min"),
     "within_100ms": ("within 0.1 s (%)", "min"),
+    "pause_mean_s": ("pause window mean (s)", "max"),
+    "pause_max_s": ("pause window max (s)", "max"),
     "missing": ("no hands frame (%)", "max"),
     "finger_deg": ("finger error (deg)", "max"),
     "covered": ("covered by truth (%)", "min"),
@@ -162,6 +166,18 @@ def alignment_scores(err_s: np.ndarray, covered: np.ndarray, fps: float) -> dict
     return out
 
 
+def pause_scores(err_s: np.ndarray, sep: ScenarioSeparation, n_sides: int) -> dict:
+    """Mean and maximum finite error (seconds) over the body frames of the pause windows
+    (``sep.params["pause_windows"]``), for ``err_s`` holding ``n_sides`` sides one after the
+    other; NaN without a pause."""
+    n = sep.body.n_frames
+    win = np.tile(ranges_mask(sep.params.get("pause_windows", []), n), max(n_sides, 1))
+    e = err_s[win & np.isfinite(err_s)]
+    if len(e) == 0:
+        return {"pause_mean_s": np.nan, "pause_max_s": np.nan}
+    return {"pause_mean_s": float(e.mean()), "pause_max_s": float(e.max())}
+
+
 def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCENARIO_METHODS,
                            splice_options: dict | None = None, generic_window: int | None = None) -> list[dict]:
     """Run and score every method on one scenario separation of ``take``.
@@ -229,7 +245,7 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
         cov = np.concatenate(covs) if covs else covered
         unc_all = np.concatenate(uncs) if has_unc else None
         low_all = np.concatenate(lows) if has_low else None
-        rec = {"method": method, **alignment_scores(err, cov, fb)}
+        rec = {"method": method, **alignment_scores(err, cov, fb), **pause_scores(err, sep, len(errs))}
         rec["finger_deg"] = float(np.mean(quat_angle(q[covered], ref[covered]))) if covered.any() else np.nan
         rec["covered"] = 100.0 * float(covered.mean())
         rec.update(uncovered_scores(cov, unc_all))
@@ -302,6 +318,7 @@ COMPACT = {
     "align mean, s (frames)": ("align mean (s)", 3),
     "align p95, s": ("align p95 (s)", 3),
     "within 0.05 s, %": ("within 0.05 s (%)", 1),
+    "pause window mean, s": ("pause window mean (s)", 3),
     "finger, deg": ("finger error (deg)", 2),
     "uncovered found, %": ("uncovered found (%)", 1),
     "err > 0.1 s flagged, %": ("err > 0.1 s flagged (%)", 1),

@@ -15,7 +15,10 @@ performance from first frame to last.  :func:`make_scenario` makes the same kind
   performance for 1-2 s (``K`` hands frames showing the same pose, with the capture noise)
   while the body goes on; the truth jumps by ``K`` hands frames there (steep time map);
 * ``pause-body``: the reverse: the body stays at one instant for 1-2 s (``k`` extra body
-  frames) while the hands go on; the truth is flat over exactly ``k`` body frames;
+  frames) while the hands go on; the truth is flat over exactly ``k`` body frames.
+  A pause is placed at a moment where the take moves slowly (the wrist speed at most its
+  median over the middle 60 % of the covered span), so the other take keeps moving slowly
+  there, as when a performer lingers at the end of a gesture;
 * ``speed``: local speed of the hands clock 0.33x-3x (instead of 0.5x-2x);
 * ``rate``: non-integer rate ratio: the body resampled to 29.97 fps, the hands at 120 fps;
 * ``imitation``: a second performance imitates the first: per-gesture arm amplitude changes
@@ -146,7 +149,8 @@ class ScenarioSeparation:
     scenario : Scenario
     params : dict
         Drawn values (``extra_begin_frames``, ``extra_end_frames``, ``pause_hands`` (hands
-        frame, K), ``pause_body`` (body frame, k), ``cover``, ``hands_fps``, ``body_fps``,
+        frame, K), ``pause_body`` (body frame, k), ``pause_windows`` (``[first, last]`` body
+        frames from each pause's start to 3 s after its end), ``cover``, ``hands_fps``, ``body_fps``,
         the capture's draws, ``imitation`` draws).
     """
 
@@ -291,6 +295,24 @@ def _imitate(hands: Motion, r: Roles, rng: np.random.Generator, sc: Scenario) ->
     return Motion(sk, out.channels, hands.frame_time, hands.source), drawn
 
 
+def _wrist_speed(take: Motion, r: Roles) -> np.ndarray:
+    """Speed of the faster wrist at each take frame (file units per frame), smoothed over 0.2 s."""
+    wrists = [arm.wrist for arm in r.sides.values()]
+    _, p = global_transforms(take, wrists)
+    v = np.linalg.norm(np.gradient(p, axis=0), axis=-1).max(axis=1)
+    return gaussian_filter1d(v, 0.2 * take.fps, mode="nearest")
+
+
+def _slow_moment(rng: np.random.Generator, speed: np.ndarray, times: np.ndarray, lo: int, hi: int) -> int:
+    """A random index into ``times`` (take frames) in the middle 60 % of ``[lo, hi)`` where the
+    take moves slowly: the wrist speed at ``times[k]`` is at most the median over that range."""
+    a, b = lo + int(0.2 * (hi - lo)), lo + int(0.8 * (hi - lo))
+    idx = np.arange(a, max(b, a + 1))
+    sp = np.interp(times[idx], np.arange(len(speed), dtype=np.float64), speed)
+    slow = idx[sp <= np.median(sp)]
+    return int(slow[rng.integers(len(slow))])
+
+
 def _far_clip_start(rng: np.random.Generator, n: int, length: float, avoid: float, min_gap: float) -> float:
     """Start (take frames) of a clip of ``length`` take frames inside ``[0, n - 1]`` whose
     span stays ``min_gap`` take frames away from the instant ``avoid`` where possible."""
@@ -354,7 +376,7 @@ def make_scenario(take: Motion, sc: Scenario | str, *, rng: np.random.Generator,
     # 3. the hands performer holds
     if sc.pause_hands_s is not None:
         kh = max(int(round(rng.uniform(*sc.pause_hands_s) * g)), 1)
-        q = int(rng.integers(int(0.2 * len(h)), int(0.8 * len(h))))
+        q = _slow_moment(rng, _wrist_speed(take, r), h, 0, len(h))
         h = np.concatenate([h[:q + 1], np.full(kh, h[q]), h[q + 1:]])
         params["pause_hands"] = (q, kh)
 
@@ -364,8 +386,7 @@ def make_scenario(take: Motion, sc: Scenario | str, *, rng: np.random.Generator,
     if sc.pause_body_s is not None:
         kb = max(int(round(rng.uniform(*sc.pause_body_s) * fb)), 1)
         inside = np.flatnonzero((b >= h[0]) & (b <= h[-1]))
-        lo, hi = inside[0] + int(0.2 * len(inside)), inside[0] + int(0.8 * len(inside))
-        p = int(rng.integers(lo, max(hi, lo + 1)))
+        p = _slow_moment(rng, _wrist_speed(take, r), b, inside[0], inside[-1] + 1)
         b = np.concatenate([b[:p + 1], np.full(kb, b[p]), b[p + 1:]])
         params["pause_body"] = (p, kb)
 
@@ -441,5 +462,18 @@ def make_scenario(take: Motion, sc: Scenario | str, *, rng: np.random.Generator,
 
     truth = invert_time(h, b)
     truth = np.where(np.isfinite(truth), truth + g0, np.nan)
+
+    # body frames around each pause: from its start to 3 s after its end
+    after = int(round(3.0 * fb))
+    windows = []
+    if "pause_body" in params:
+        p, kb = params["pause_body"]
+        windows.append((p, min(p + kb + after, len(b) - 1)))
+    if "pause_hands" in params:
+        q, kh = params["pause_hands"]
+        cov = np.flatnonzero(np.isfinite(truth))
+        i0 = int(cov[max(np.searchsorted(truth[cov], g0 + q, side="right") - 1, 0)])
+        windows.append((i0, min(i0 + after, len(b) - 1)))
+    params["pause_windows"] = windows
     params["finger_joints"] = fingers
     return ScenarioSeparation(body, hands, truth, b, hands_time, (g0, g1), fps, sc, params)

@@ -10,9 +10,9 @@ from splicer.baselines import generic_dtw_frames
 from splicer.errors import SplicerError
 from splicer.roles import find_roles
 from splicer.rotations import quat_angle
-from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, evaluate_scenario_pair, flag_scores,
+from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, evaluate_scenario_pair, flag_scores, pause_scores,
                                    ranges_mask, report_flags, summarize_scenarios, uncovered_scores)
-from splicer.scenarios import (SCENARIOS, Scenario, alignment_error_s, hands_take_time, invert_time,
+from splicer.scenarios import (SCENARIOS, Scenario, _wrist_speed, alignment_error_s, hands_take_time, invert_time,
                                make_scenario, scenario)
 from splicer.separate import finger_joints, separate
 from splicer.synth import make_gesture_take
@@ -56,6 +56,11 @@ def test_pause_body_gives_flat_truth_of_k_frames(take):
     np.testing.assert_array_equal(flat, np.arange(p, p + 30))  # exactly k zero steps, consecutive
     np.testing.assert_allclose(np.delete(d, flat), 2.0, atol=1e-9)
     np.testing.assert_allclose(s.truth[p:p + 31], 2.0 * p, atol=1e-9)
+    assert s.params["pause_windows"] == [(p, min(p + 30 + 90, s.body.n_frames - 1))]
+    # placed where the take moves slowly: wrist speed at most the median of the middle 60 %
+    sp = _wrist_speed(take, find_roles(take.skeleton))
+    n = take.n_frames
+    assert sp[p] <= np.median(sp[int(0.2 * n):int(0.8 * n)]) + 1e-12
     # the body holds: its frames in the pause are the same pose
     np.testing.assert_allclose(s.body.channels[p + 1:p + 31], np.broadcast_to(s.body.channels[p], (30, s.body.skeleton.n_channels)))
     # a method that walks on through the pause is off by up to 1 s at its end
@@ -73,6 +78,7 @@ def test_pause_hands_gives_a_step_of_K_frames(take):
     big = np.flatnonzero(d > 2.0 + 1e-9)
     assert len(big) == 1 and d[big[0]] == pytest.approx(2.0 + 60)
     assert big[0] == q // 2  # the body frame before the held instant (hands frame q = take frame q / 2)
+    assert s.params["pause_windows"] == [(q // 2, min(q // 2 + 90, take.n_frames - 1))]
     # every held frame shows the same instant: any of them is right for that instant
     held = np.arange(q, q + 61, dtype=float)
     np.testing.assert_allclose(hands_take_time(s, held), q / 2.0)
@@ -195,6 +201,18 @@ def test_flag_scores_worked_example():
     assert np.isnan(flag_scores(err, covered, None, None)["flag_bad"])
     u = uncovered_scores(covered, unc)
     assert u["unc_found"] == 50.0 and u["unc_false"] == 0.0
+
+
+def test_pause_scores_worked_example(take):
+    s = _make(take, pause_body_s=(1.0, 1.0), **STILL)
+    (a, b), = s.params["pause_windows"]
+    err = np.zeros(2 * s.body.n_frames)
+    err[a] = 0.3                       # left side, in the window
+    err[s.body.n_frames + b] = 0.6     # right side, last frame of the window
+    err[0] = 5.0                       # outside
+    ps = pause_scores(err, s, 2)
+    assert ps["pause_max_s"] == 0.6 and ps["pause_mean_s"] == pytest.approx(0.9 / (2 * (b - a + 1)))
+    assert np.isnan(pause_scores(np.zeros(2 * take.n_frames), _make(take, **STILL), 2)["pause_mean_s"])
 
 
 def test_alignment_scores_worked_example():

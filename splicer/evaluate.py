@@ -369,6 +369,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "imitation, all)")
     p.add_argument("--synthetic", action="store_true",
                    help="scenarios: also run the synthetic take (make_gesture_take, --synthetic-seconds, seed 0)")
+    p.add_argument("--splice-option", action="append", default=None, metavar="KEY=VALUE",
+                   help="scenarios: a SpliceOptions field for every splice method (repeatable; VALUE read as YAML)")
     return p
 
 

@@ -368,6 +368,15 @@ def scenario_cli(args, params, err) -> int:
     from .evaluate import default_takes
     from .synth import make_gesture_take
 
+    import yaml
+
+    opts = {}
+    for kv in args.splice_option or []:
+        key, sep_, val = kv.partition("=")
+        if not sep_ or not key:
+            err(f"splicer-evaluate: --splice-option needs KEY=VALUE, got {kv!r}")
+            return 1
+        opts[key.strip()] = yaml.safe_load(val)
     names = list(SCENARIOS) if args.scenarios == "all" else []
     names += [n for n in (args.scenario or []) if n not in names]
     try:
@@ -377,17 +386,17 @@ def scenario_cli(args, params, err) -> int:
         if args.synthetic and not all(t.source and t.source.startswith("synth") for t in takes):
             takes.append(make_gesture_take(args.synthetic_seconds, 30.0, np.random.default_rng(0)))
         runs = evaluate_scenarios(takes, names, seeds=range(args.seed0, args.seed0 + args.seeds),
-                                  generic_window=args.generic_window, progress=err, amplitude=params.amplitude,
+                                  splice_options=opts or None, generic_window=args.generic_window, progress=err, amplitude=params.amplitude,
                                   yaw_deg=params.yaw_deg, noise_deg=params.noise_deg,
                                   warp_sigma_s=params.warp_sigma_s)
-    except (SplicerError, ValueError) as e:
+    except (SplicerError, ValueError, TypeError) as e:
         err(f"splicer-evaluate: {e}")
         return 1
     table = summarize_scenarios(runs)
     takes_txt = ", ".join(f"{Path(t.source).name if t.source and not t.source.startswith('synth') else 'synthetic'} "
                           f"({t.n_frames} frames @ {t.fps:g} fps)" for t in takes)
     seeds = sorted(set(runs["seed"]))
-    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Cells: mean over runs (worst run). "
+    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Splice options: {opts or 'defaults'}. Cells: mean over runs (worst run). "
               "Alignment error in seconds of the performance (frames = seconds x body fps) over body frames "
               "the hands cover; finger error in degrees over covered frames.\n")
     parts = [header]

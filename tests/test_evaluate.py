@@ -138,3 +138,7 @@ def test_cli_scenarios(tmp_path, capsys, monkeypatch):
     assert {"scenario", "method", "align mean (s)", "align mean (s) worst"} <= set(csv.columns)
     assert main(["--scenario", "nope", "--seeds", "1"]) == 1
     assert "unknown scenario 'nope'" in capsys.readouterr().err
+    assert main(["--scenario", "base", "--seeds", "1", "--synthetic-seconds", "6", "--splice-option", "theta=sideways"]) == 1
+    assert "theta must be one of" in capsys.readouterr().err
+    assert main(["--scenario", "base", "--seeds", "1", "--splice-option", "merge"]) == 1
+    assert "KEY=VALUE" in capsys.readouterr().err

@@ -77,8 +77,10 @@ class Scenario:
     extra_begin_s: tuple[float, float] | None = None
     extra_end_s: tuple[float, float] | None = None
     still_share: tuple[float, float] = (0.3, 0.7)  # share of the extra material that is the still pose
+    still_share_end: tuple[float, float] | None = None  # the same after the span; None: ``still_share``
     blend_s: float = 0.25  # easing of each junction of extra material, inside the extra material
     cover: tuple[float, float] | None = None  # share of the body's span the hands cover
+    cover_start: float | None = None  # where that share starts (share of the take); None: random
     pause_hands_s: tuple[float, float] | None = None
     pause_body_s: tuple[float, float] | None = None
     warp_speed: tuple[float, float] = (0.5, 2.0)
@@ -366,7 +368,7 @@ def make_scenario(take: Motion, sc: Scenario | str, *, rng: np.random.Generator,
     # 2. the hands cover only part of the take
     if sc.cover is not None:
         c = rng.uniform(*sc.cover)
-        start = rng.uniform(0.0, 1.0 - c)
+        start = rng.uniform(0.0, 1.0 - c) if sc.cover_start is None else min(max(float(sc.cover_start), 0.0), 1.0 - c)
         ta, tb = start * (n - 1), (start + c) * (n - 1)
         h = h[(h >= ta) & (h <= tb)]
         params["cover"] = (float(c), float(ta), float(tb))
@@ -412,7 +414,7 @@ def make_scenario(take: Motion, sc: Scenario | str, *, rng: np.random.Generator,
     if sc.extra_end_s is not None:
         e = rng.uniform(*sc.extra_end_s)
         total = max(int(round(e * g)), 2)
-        n_still = int(round(rng.uniform(*sc.still_share) * total))
+        n_still = int(round(rng.uniform(*(sc.still_share_end or sc.still_share)) * total))
         n_move = total - n_still
         still = rng.uniform(0.0, n - 1)
         start = _far_clip_start(rng, n, n_move * per, h[-1], 10.0 * fps)

@@ -249,3 +249,14 @@ def test_evaluate_scenario_pair(take):
     t = summarize_scenarios(runs)
     assert list(t.index.get_level_values("method")) == ["oracle", "uniform scaling", "splice (smooth time map)"]
     assert set(SCENARIO_METHODS) >= set(by)
+
+
+def test_known_answer_layouts(take):
+    """The issue's known-answer inputs: [3 s still] + body + [3 s other motion]; hands on the middle half."""
+    s = _make(take, extra_begin_s=(3.0, 3.0), extra_end_s=(3.0, 3.0), still_share=(1.0, 1.0),
+              still_share_end=(0.0, 0.0), **STILL)
+    assert s.params["extra_begin"]["move_frames"] == 0 and s.params["extra_end"]["still_frames"] == 0
+    np.testing.assert_allclose(s.truth, 180.0 + 2.0 * np.arange(take.n_frames), atol=1e-9)
+    m = _make(take, cover=(0.5, 0.5), cover_start=0.25, **STILL)
+    cov = np.flatnonzero(m.covered)
+    assert cov[0] == 90 and cov[-1] == 270  # (n - 1) = 360: frames 90..270

@@ -68,7 +68,7 @@ def _znorm(x: np.ndarray) -> np.ndarray:
 
 
 def generic_dtw_frames(body: Motion, hands: Motion, body_arm: ArmRoles, hands_arm: ArmRoles, up: int, *,
-                       window: int | None = None) -> np.ndarray:
+                       window: int | None = None, open_ends: bool = False) -> np.ndarray:
     """Generic multivariate DTW (dtaidistance) on hand positions in the root frame.
 
     Parameters
@@ -89,7 +89,8 @@ def generic_dtw_frames(body: Motion, hands: Motion, body_arm: ArmRoles, hands_ar
 
     Notes
     -----
-    O(n * m) time and memory with the full matrix (dtaidistance's C path keeps the window).
+    O(n * m) time and memory with the full matrix (dtaidistance's C path keeps the window;
+    with ``open_ends`` the full cost matrix is kept, n * m doubles).
     """
     try:
         from dtaidistance import dtw, dtw_ndim
@@ -107,7 +108,14 @@ def generic_dtw_frames(body: Motion, hands: Motion, body_arm: ArmRoles, hands_ar
     kwargs = {"use_c": bool(dtw.try_import_c(verbose=False))}
     if window is not None:
         kwargs["window"] = int(window)
-    path = np.asarray(dtw_ndim.warping_path(s1, s2, **kwargs), dtype=np.int64)
+    if open_ends:
+        _, paths = dtw_ndim.warping_paths(s1, s2, psi=(0, 0, len(s2), len(s2)), psi_neg=False, **kwargs)
+        # end at the cheapest cell of the last body row (dtaidistance's own choice of the end
+        # can drop the last body row when it marks the relaxed cells with -1)
+        col = 1 + int(np.argmin(paths[-1, 1:]))
+        path = np.asarray(dtw.best_path(paths, row=paths.shape[0] - 1, col=col), dtype=np.int64)
+    else:
+        path = np.asarray(dtw_ndim.warping_path(s1, s2, **kwargs), dtype=np.int64)
     per_frame = path_median(path, body.n_frames)
     return np.clip(per_frame * ratio, 0.0, hands.n_frames - 1)
 

@@ -359,6 +359,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--generic-window", type=int, default=None, help="Sakoe-Chiba window of the generic DTW, frames "
                    "(default: full DTW)")
     p.add_argument("--synthetic-seconds", type=float, default=60.0, help="length of the synthetic fallback take")
+    # --- scenarios of real sessions (issue 8; splicer.scenarios, splicer.scenario_eval) ---
+    p.add_argument("--scenario", action="append", default=None, metavar="NAME",
+                   help="run a scenario instead of the plain protocol (repeatable): base, all, or components "
+                        "joined by '+' from extra, extra-begin, extra-end, short, pause-hands, pause-body, "
+                        "speed, rate, imitation (e.g. extra+pause-hands)")
+    p.add_argument("--scenarios", choices=["all"], default=None,
+                   help="'all': every named scenario (base, extra, short, pause-hands, pause-body, speed, rate, "
+                        "imitation, all)")
+    p.add_argument("--synthetic", action="store_true",
+                   help="scenarios: also run the synthetic take (make_gesture_take, --synthetic-seconds, seed 0)")
+    p.add_argument("--splice-option", action="append", default=None, metavar="KEY=VALUE",
+                   help="scenarios: a SpliceOptions field for every splice method (repeatable; VALUE read as YAML)")
     return p
 
 
@@ -370,6 +382,9 @@ def main(argv=None) -> int:
     def err(msg: str) -> None:
         print(msg, file=sys.stderr, flush=True)
 
+    if args.scenario or args.scenarios:
+        from .scenario_eval import scenario_cli
+        return scenario_cli(args, params, err)
     try:
         takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds, note=lambda m: (print(m), err(m)))
         runs = evaluate(takes, seeds=args.seeds, seed0=args.seed0, params=params,

@@ -28,7 +28,7 @@ from .roles import Roles, find_roles
 from .rotations import quat_angle_deg, quat_hemisphere, quat_mul, quat_normalize, quat_slerp, yaw_quat_deg
 from .timewarp import resample_motion, smooth_monotone_warp, smooth_noise
 
-__all__ = ["Separation", "separate", "finger_joints", "moving_finger_joints", "wrist_rooted"]
+__all__ = ["Separation", "separate", "warp_time_map", "confine_capture", "finger_joints", "moving_finger_joints", "wrist_rooted"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,7 +153,6 @@ def separate(take: Motion, *, rng: np.random.Generator, roles: Roles | None = No
     if not g > 0:
         raise ValueError(f"hands_fps must be positive, got {hands_fps}")
     n = take.n_frames
-    up = r.up
 
     # body: fingers at identity
     ch = np.array(take.channels)
@@ -161,14 +160,78 @@ def separate(take: Motion, *, rng: np.random.Generator, roles: Roles | None = No
         ch[:, sk.rotation_columns(j)] = 0.0
     body = take.with_channels(ch)
 
-    # time map
+    truth, take_frames, speed = warp_time_map(n, fps, g, rng, warp_speed=warp_speed, warp_sigma_s=warp_sigma_s)
+    hands = resample_motion(take, take_frames, 1.0 / g)
+    hands, cap = confine_capture(hands, take, rng, roles=r, amplitude=amplitude, yaw_deg=yaw_deg,
+                                 noise_deg=noise_deg, root_drift=root_drift)
+    params = dict(hands_fps=g, speed=speed, noise_deg=float(noise_deg), finger_joints=fingers, **cap)
+    extra = {}
+    if hand_only == "wrist":
+        extra = {side: wrist_rooted(hands, arm.wrist, source=f"hands_{side}.bvh") for side, arm in r.sides.items()}
+    return Separation(body, hands, truth, params, extra)
+
+
+def warp_time_map(n: int, fps: float, hands_fps: float, rng: np.random.Generator, *,
+                  warp_speed: tuple[float, float] = (0.5, 2.0), warp_sigma_s: float = 1.5):
+    """The random re-timing of :func:`separate` (one draw from ``rng``).
+
+    Parameters
+    ----------
+    n : int
+        Frames of the take.
+    fps, hands_fps : float
+        Frame rates of the take and of the hands capture, frames per second.
+
+    Returns
+    -------
+    truth : np.ndarray [shape=(n,)]
+        Fractional hands frame of each take frame; ``truth[0] = 0``, ``truth[-1] = m - 1``.
+    take_frames : np.ndarray [shape=(m,)]
+        Fractional take frame shown by each hands frame (the inverse of ``truth``).
+    speed : np.ndarray [shape=(n,)]
+        Hands-seconds per take-second.
+    """
     w = smooth_monotone_warp(n, rng, min_speed=warp_speed[0], max_speed=warp_speed[1], sigma=warp_sigma_s * fps)
-    truth = w * (g / fps)
+    truth = w * (hands_fps / fps)
     m = int(round(truth[-1])) + 1
     truth = truth * ((m - 1) / truth[-1])
-    speed = np.gradient(truth) * fps / g
+    speed = np.gradient(truth) * fps / hands_fps
     take_frames = np.interp(np.arange(m, dtype=np.float64), truth, np.arange(n, dtype=np.float64))
-    hands = resample_motion(take, take_frames, 1.0 / g)
+    return truth, take_frames, speed
+
+
+def confine_capture(hands: Motion, take: Motion, rng: np.random.Generator, *, roles: Roles | None = None,
+                    amplitude: tuple[float, float] = (0.25, 0.7), yaw_deg: tuple[float, float] = (25.0, 60.0),
+                    noise_deg: float = 0.5, root_drift: float | None = None) -> tuple[Motion, dict]:
+    """Make a re-timed copy of ``take`` look like a separate hand capture (ALGORITHM.md 8).
+
+    Arm and torso rotations are pulled toward their mean by a smoothly varying factor (a
+    confined capture volume), the root is turned about the vertical axis and held near its
+    mean horizontal position, and white rotation noise is added to wrists and fingers.
+    Random draws, in this order: pull factor, yaw, root drift, noise (``separate`` relies on it).
+
+    Parameters
+    ----------
+    hands : Motion
+        The take's skeleton, already re-timed (any frame count); its frame time is kept.
+    take : Motion
+        The original take (for the root's rest height).
+    rng : np.random.Generator
+    roles, amplitude, yaw_deg, noise_deg, root_drift
+        As in :func:`separate`.
+
+    Returns
+    -------
+    (Motion, dict)
+        The capture (source ``"hands.bvh"``) and the drawn values: ``amplitude`` (m,),
+        ``yaw_deg``, ``root_drift`` (m, 3), ``pulled_joints``, ``noisy_joints``.
+    """
+    sk = take.skeleton
+    r = _roles(take, roles)
+    fingers = finger_joints(take, r)
+    up = r.up
+    m = hands.n_frames
+    g = hands.fps
 
     # arms and torso pulled toward their mean by a smoothly varying factor
     pulled = _arm_torso_joints(sk, r)
@@ -206,14 +269,9 @@ def separate(take: Motion, *, rng: np.random.Generator, roles: Roles | None = No
     hands = hands.with_rotations(changed, quat_hemisphere(q[:, changed], axis=0))
     if sk.position_columns(root):
         hands = hands.with_translations(root, pos)
-    hands = Motion(sk, hands.channels, 1.0 / g, "hands.bvh")
+    hands = Motion(sk, hands.channels, hands.frame_time, "hands.bvh")
 
-    params = dict(yaw_deg=float(yaw), hands_fps=g, speed=speed, amplitude=amp, root_drift=drift,
-                  noise_deg=float(noise_deg), pulled_joints=pulled, noisy_joints=noisy, finger_joints=fingers)
-    extra = {}
-    if hand_only == "wrist":
-        extra = {side: wrist_rooted(hands, arm.wrist, source=f"hands_{side}.bvh") for side, arm in r.sides.items()}
-    return Separation(body, hands, truth, params, extra)
+    return hands, dict(amplitude=amp, yaw_deg=float(yaw), root_drift=drift, pulled_joints=pulled, noisy_joints=noisy)
 
 
 def wrist_rooted(motion: Motion, wrist: int, *, source: str | None = None) -> Motion:

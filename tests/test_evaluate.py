@@ -118,3 +118,27 @@ def test_zeggs_one_seed(shared_motions):
     assert t.loc["oracle", "finger error (deg)"] < 1.5
     assert t.loc["full, smooth time map", "align mean (frames)"] < t.loc["uniform scaling", "align mean (frames)"]
     assert t.loc["full, smooth time map", "finger error (deg)"] < t.loc["uniform scaling", "finger error (deg)"]
+
+
+def test_cli_scenarios(tmp_path, capsys, monkeypatch):
+    import splicer.evaluate as ev
+
+    monkeypatch.setattr(ev, "SHARED_ZEGGS", tmp_path / "absent")
+    out = tmp_path / "sc"
+    assert main(["--scenario", "extra+pause-body", "--scenario", "rate", "--seeds", "2", "--seed0", "100",
+                 "--synthetic-seconds", "12", "--out", str(out)]) == 0
+    cap = capsys.readouterr()
+    assert "### extra+pause-body" in cap.out and "### rate" in cap.out
+    assert "extra+pause-body / synthetic / seed 101" in cap.err
+    runs = pd.read_csv(out.parent / "sc_runs.csv")
+    assert set(runs["scenario"]) == {"extra+pause-body", "rate"} and set(runs["seed"]) == {100, 101}
+    assert {"align_mean_s", "align_p95_s", "align_mean_f", "finger_deg", "flag_bad", "flag_good", "unc_found"} <= set(runs.columns)
+    assert (runs.loc[runs["method"] == "oracle", "align_mean_s"] < 1e-9).all()
+    csv = pd.read_csv(out.with_suffix(".csv"))
+    assert {"scenario", "method", "align mean (s)", "align mean (s) worst"} <= set(csv.columns)
+    assert main(["--scenario", "nope", "--seeds", "1"]) == 1
+    assert "unknown scenario 'nope'" in capsys.readouterr().err
+    assert main(["--scenario", "base", "--seeds", "1", "--synthetic-seconds", "6", "--splice-option", "theta=sideways"]) == 1
+    assert "theta must be one of" in capsys.readouterr().err
+    assert main(["--scenario", "base", "--seeds", "1", "--splice-option", "merge"]) == 1
+    assert "KEY=VALUE" in capsys.readouterr().err

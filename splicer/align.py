@@ -12,11 +12,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from .band import _trim
+from .band import _trim, full_band
 from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from .errors import BandError
 from .markers import Markers
 from .metrics import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
+from .openend import (MAX_COARSE_CELLS, UNCOVERED_QUANTILE, coarse_rate, d1_sample, offset_band,
+                      uncovered_penalty)
 from .timewarp import sample_linear
 
 __all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
@@ -36,6 +38,13 @@ class PassResult:
     band : Band
         The admissible region, for plotting.
     name : str
+    local_cost : callable or None
+        ``(band, i0, i1) -> band rows of local costs``, for plots and :mod:`splicer.confidence`.
+    covered : tuple of int or None
+        ``(first, last)`` body frame the path covers (inclusive); the whole body with fixed
+        ends.  Frames outside have no hands material (open ends).
+    uncovered_cost : float
+        Penalty per uncovered body frame the pass used (0 with fixed ends), local-cost units.
     """
 
     path: np.ndarray
@@ -43,6 +52,8 @@ class PassResult:
     band: Band
     name: str
     local_cost: object = None  # callable (band, i0, i1) -> band rows of local costs, for plots
+    covered: tuple | None = None
+    uncovered_cost: float = 0.0
 
 
 def resample_markers(markers: Markers, fps: float) -> Markers:
@@ -60,26 +71,34 @@ def resample_markers(markers: Markers, fps: float) -> Markers:
     return warp_markers(markers, np.arange(m) * ratio, fps=fps)
 
 
-def _run(cost, band: Band, progress=None) -> DTWResult:
-    """The DTW over ``band`` with a band-chunk cost; ``progress(fraction)`` after each chunk of rows."""
+def _run(cost, band: Band, progress=None, **ends) -> DTWResult:
+    """The DTW over ``band`` with a band-chunk cost; ``progress(fraction)`` after each chunk of rows.
+    ``ends``: :func:`splicer.dtw.dtw`'s ``open_begin``, ``open_end``, ``uncovered_cost``."""
     if progress is None:
-        return dtw(lambda i0, i1: cost(band, i0, i1), band)
+        return dtw(lambda i0, i1: cost(band, i0, i1), band, **ends)
 
     def chunk(i0, i1):
         out = cost(band, i0, i1)
         progress(i1 / band.n)
         return out
 
-    return dtw(chunk, band)
+    return dtw(chunk, band, **ends)
 
 
-def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: float, constraints=()) -> Band:
+def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: float, constraints=(), *,
+                open_begin: bool = False, open_end: bool = False) -> Band:
     """A band of width ``width`` (body frames) that follows a coarse path instead of the diagonal.
 
     Each coarse cell ``(I, J)`` stands for the fine cells around ``(I * factor, J * factor)``; the
     band is the union of those blocks along the coarse path, widened by the half-width
     ``Delta = W * sqrt(1 + s^2) / 2`` (``s = m / n``), clipped to every constraint's window and
     trimmed to cells that lie on a path.  O(n) memory.
+
+    With fixed ends the band reaches ``(0, 0)`` and ``(n - 1, m - 1)``.  With open ends
+    (a coarse path from an open-ended pass, which may start after coarse row 0 or end before
+    the last) it does not have to: coarse rows before the path's first cell take its first
+    column, rows after its last cell its last column, so the fine pass can still move the
+    start and end by a coarse frame or more, and leave the rest uncovered.
 
     Raises
     ------
@@ -88,10 +107,15 @@ def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: f
     """
     I, J = coarse_path[:, 0], coarse_path[:, 1]
     nc = int(I.max()) + 1
+    if open_begin or open_end:                        # the coarse path may stop short of the last row
+        nc = max(nc, int(np.rint((n - 1) / factor)) + 1)
     jmin = np.full(nc, np.iinfo(np.int64).max)
     jmax = np.full(nc, -1)
     np.minimum.at(jmin, I, J)
     np.maximum.at(jmax, I, J)
+    i0, i1 = int(I.min()), int(I.max())
+    jmin[:i0], jmax[:i0] = J[0], J[0]                 # rows the coarse path leaves uncovered
+    jmin[i1 + 1:], jmax[i1 + 1:] = J[-1], J[-1]
     ci = np.clip(np.rint(np.arange(n) / factor).astype(np.int64), 0, nc - 1)
     # neighbouring coarse rows too, so blocks of consecutive rows overlap
     lo_c = np.minimum(jmin[ci], jmin[np.maximum(ci - 1, 0)])
@@ -101,18 +125,32 @@ def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: f
     hi = np.ceil(hi_c * factor + factor + delta).astype(np.int64)
     lo = np.clip(lo, 0, m - 1)
     hi = np.clip(hi, 0, m - 1)
-    lo[0] = 0
-    hi[-1] = m - 1
+    if not open_begin:
+        lo[0] = 0
+    if not open_end:
+        hi[-1] = m - 1
     for c in constraints:
         lo[c.x] = max(lo[c.x], c.y - c.tolerance)
         hi[c.x] = min(hi[c.x], c.y + c.tolerance)
     lo, hi = _trim(lo, hi)
-    return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints))
+    return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints), open_begin=open_begin,
+                open_end=open_end)
+
+
+def _coarse_constraints(constraints, factor, nc, mc):
+    out = []
+    for c in constraints:
+        x, y = int(round(c.x / factor)), int(round(c.y / factor))
+        if 0 < x < nc - 1 and 0 < y < mc - 1 and (not out or (x > out[-1].x and y > out[-1].y)):
+            out.append(Constraint(x, y, int(np.ceil(c.tolerance / factor)) + 1))
+    return out
 
 
 def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = 0.025,
           dead_zone: float = 0.01, theta: str = "window", coarse_fps: float | None = None,
-          coarse_width: float | None = None, progress=None) -> PassResult:
+          coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
+          uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
+          max_coarse_cells: int = MAX_COARSE_CELLS) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -133,18 +171,50 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         diagonal, then run the full-rate pass in a band of ``width`` around that coarse path
         (:func:`guided_band`).  A performance that drifts far from uniform timing over many
         minutes stays inside the band.  None: the band follows the diagonal (the paper).
+        With ``ends="open"``: the rate of the locating pass (default 5 fps).
+    ends : {"fixed", "open"}
+        ``"fixed"`` (the paper): the path runs from ``(0, 0)`` to ``(n - 1, m - 1)``.
+        ``"open"`` (ALGORITHM.md section 9): the body's span may lie anywhere in the hands
+        take and either may cover only part of the other.  A coarse pass at ``coarse_fps``
+        (lowered so that the coarse matrix has at most ``max_coarse_cells`` cells), open at
+        both ends over the whole hands take (or, with ``offset_s``, over a band of
+        ``coarse_width`` body frames around that offset), locates the overlap; the full-rate
+        pass runs open-ended in a band of ``width`` around the located coarse path.  Body
+        frames outside ``result.covered`` have no hands material.
+    offset_s : float, optional
+        Open ends only: a starting guess (e.g. from timecode): body frame 0 shows the same
+        instant as hands time ``offset_s`` seconds (may be negative: the hands take starts
+        later).  The coarse pass then searches a band of ``coarse_width`` body frames
+        (default 30 s) around ``j = i + offset`` instead of the whole take.
+    uncovered_quantile : float
+        Open ends: the per-frame penalty for uncovered body frames is this quantile of D1
+        over a sample of all frame pairs (:func:`splicer.openend.uncovered_penalty`).
+    uncovered_cost : float, optional
+        Open ends: the penalty itself (D1 units per body frame), overriding the quantile.
+    max_coarse_cells : int
+        Open ends: cap on the coarse matrix (1 byte of DTW steps per cell).
+
+    Returns
+    -------
+    PassResult
+        With ``covered``, the first and last body frame the path covers (the whole body with
+        fixed ends), and ``uncovered_cost``.
     """
+    if ends not in ("fixed", "open"):
+        raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
+    if ends == "open":
+        return _pass1_open(body, hands, width=width, constraints=constraints, smooth_s=smooth_s,
+                           dead_zone=dead_zone, theta=theta, coarse_fps=5.0 if coarse_fps is None else coarse_fps,
+                           coarse_width=coarse_width, progress=progress, offset_s=offset_s,
+                           uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
+                           max_coarse_cells=max_coarse_cells)
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
     n, m = body.n_frames, hands.n_frames
     if coarse_fps is not None and coarse_fps < body.fps:
         factor = body.fps / coarse_fps
         cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
-        ccons = []
-        for c in constraints:
-            x, y = int(round(c.x / factor)), int(round(c.y / factor))
-            if 0 < x < cb.n_frames - 1 and 0 < y < ch.n_frames - 1 and (not ccons or (x > ccons[-1].x and y > ccons[-1].y)):
-                ccons.append(Constraint(x, y, int(np.ceil(c.tolerance / factor)) + 1))
+        ccons = _coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)
         cw = (coarse_width if coarse_width is not None else width) / factor
         coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta)
         try:
@@ -155,7 +225,46 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         band = make_band(n, m, width, constraints)
     d1 = d1_cost(fb, fh, theta=theta)
     res = _run(d1, band, progress)
-    return PassResult(res.path, res.cost, band, "pass1", d1)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0)
+
+
+def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, coarse_fps, coarse_width, progress,
+                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells):
+    n, m = body.n_frames, hands.n_frames
+    cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
+    factor = body.fps / cfps
+    if factor > 1.0 + 1e-9:
+        cb, ch = resample_markers(body, cfps), resample_markers(hands, cfps)
+    else:
+        factor, cb, ch = 1.0, body, hands
+    nc, mc = cb.n_frames, ch.n_frames
+    ccons = _coarse_constraints(constraints, factor, nc, mc) if factor > 1.0 else list(constraints)
+    fcb = phase_features(cb, smooth_s=smooth_s, dead_zone=dead_zone)
+    fch = phase_features(ch, smooth_s=smooth_s, dead_zone=dead_zone)
+    d1c = d1_cost(fcb, fch, theta=theta)
+    u = uncovered_cost
+    if u is None:
+        u = uncovered_penalty(d1_sample(fcb, fch, theta=theta), uncovered_quantile)
+    if offset_s is None:
+        cband = full_band(nc, mc, ccons)
+    else:
+        cw = (coarse_width if coarse_width is not None else 30.0 * body.fps) / factor
+        cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
+    coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u)
+    if progress is not None:
+        progress(0.0)
+    if factor > 1.0:
+        try:
+            band = guided_band(coarse.path, factor, n, m, width, constraints, open_begin=True, open_end=True)
+        except BandError:  # the coarse path missed a constraint window: search the whole take at full rate
+            band = full_band(n, m, constraints)
+    else:
+        band = cband
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
+    d1 = d1_cost(fb, fh, theta=theta)
+    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u))
 
 
 def path_median(path: np.ndarray, n: int) -> np.ndarray:
@@ -228,7 +337,7 @@ def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
     band = make_band(body.n_frames, hands_warped.n_frames, width, constraints)
     cost = _pass2_cost(d2_cost(fb, fh), d1, max(width, 1.0), diagonal_weight, d1_weight)
     res = _run(cost, band, progress)
-    return PassResult(res.path, res.cost, band, "pass2", cost)
+    return PassResult(res.path, res.cost, band, "pass2", cost, res.covered, 0.0)
 
 
 def warp_markers(markers: Markers, frames: np.ndarray, *, fps: float | None = None) -> Markers:

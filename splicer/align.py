@@ -273,13 +273,19 @@ def path_median(path: np.ndarray, n: int) -> np.ndarray:
     Returns
     -------
     np.ndarray [shape=(n,), dtype=float64]
-        Non-decreasing; halves where a frame matches an even number of frames.
+        Non-decreasing over the frames the path covers; halves where a frame matches an even
+        number of frames.  NaN for frames the path does not cover (open ends).
     """
     i, j = path[:, 0], path[:, 1]
+    rows = np.arange(n)
     # the frames matched to row r are contiguous along a monotone path
-    starts = np.searchsorted(i, np.arange(n), side="left")
-    ends = np.searchsorted(i, np.arange(n), side="right") - 1
-    return 0.5 * (j[starts + (ends - starts) // 2] + j[starts + (ends - starts + 1) // 2])
+    starts = np.searchsorted(i, rows, side="left")
+    ends = np.searchsorted(i, rows, side="right") - 1
+    on = ends >= starts
+    out = np.full(n, np.nan)
+    s, e = starts[on], ends[on]
+    out[on] = 0.5 * (j[s + (e - s) // 2] + j[s + (e - s + 1) // 2])
+    return out
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

@@ -4,12 +4,15 @@ coverage, and constraints that hold with open ends."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from splicer.band import Band, Constraint, full_band, make_band
 from splicer.dtw import dtw, dtw_features
 from splicer.errors import BandError, SplicerError
+from splicer.markers import Markers
 
 from test_dtw import as_callable, random_constraints, ref_mask, sqdist
 
@@ -221,8 +224,11 @@ def sq_costs(X, Y):
 
 
 def uncovered_cost_for(C):
+    """A clean metric (squared distances of noiseless features): a true match costs ~0 while
+    unrelated pairs are orders of magnitude dearer, so a low quantile suffices; a high one
+    would let the path hold the first (last) hands frame over body frames beyond the take."""
     from splicer.openend import uncovered_penalty
-    return uncovered_penalty(C.ravel())
+    return uncovered_penalty(C.ravel(), 0.01)
 
 
 def test_body_located_inside_longer_hands_take(rng):
@@ -284,3 +290,96 @@ def test_pins_hold_with_open_ends(rng):
         assert res.covered[0] <= 30 and res.covered[1] >= 180
     free = dtw(C, full_band(n, m), open_begin=True, open_end=True, uncovered_cost=u)
     assert np.abs(free.path[:, 1] - free.path[:, 0] - pre).max() <= 1
+
+
+# ------------------------------------------------------------------ through pass 1, markers from the sample take
+
+SAMPLE = Path(__file__).resolve().parents[1] / "motions"
+
+
+@pytest.fixture(scope="module")
+def sample_markers():
+    from splicer.align import resample_markers
+    from splicer.bvh import read_bvh
+    from splicer.markers import arm_markers
+    from splicer.roles import find_roles
+    bm, hm = read_bvh(SAMPLE / "sample_body.bvh"), read_bvh(SAMPLE / "sample_hands.bvh")
+    br, hr = find_roles(bm.skeleton, source="body"), find_roles(hm.skeleton, source="hands")
+    body = arm_markers(bm, br.sides["right"], br.up)
+    other = resample_markers(arm_markers(hm, hr.sides["left"], hr.up), bm.fps)   # unrelated motion
+    return body, other
+
+
+def _cut(mk, a, b):
+    return Markers(mk.points[a:b], mk.shoulder[a:b], mk.heading[a:b], mk.up, mk.fps, mk.side)
+
+
+def _cat(parts):
+    return Markers(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("points", "shoulder", "heading")),
+                   parts[0].up, parts[0].fps, parts[0].side)
+
+
+def _still(mk, k, count, rng):
+    pts = np.repeat(mk.points[k:k + 1], count, axis=0) + rng.normal(scale=0.05, size=(count, 4, 3))
+    return Markers(pts, np.repeat(mk.shoulder[k:k + 1], count, axis=0), np.repeat(mk.heading[k:k + 1], count),
+                   mk.up, mk.fps, mk.side)
+
+
+def _warp(rng, n_out, n_in):
+    return smooth_warp(rng, n_out, n_in)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_pass1_locates_the_body_inside_a_longer_take(sample_markers, seed):
+    """hands = [3 s still] + warped body + [3 s of the other arm]: the start is found within one
+    frame, the time map within a couple of frames everywhere, with or without an offset guess."""
+    from splicer.align import pass1, path_median, warp_markers
+    full, other = sample_markers
+    body = _cut(full, 140, 556)                   # a span that starts and ends in motion
+    n, fps = body.n_frames, body.fps
+    rng = np.random.default_rng(seed)
+    m_mid = int(n * rng.uniform(0.8, 1.25))
+    warp = _warp(rng, m_mid, n)
+    pre = post = int(3 * fps)
+    o0 = int(rng.integers(0, other.n_frames - post))
+    hands = _cat([_still(body, 0, pre, rng), warp_markers(body, warp), _cut(other, o0, o0 + post)])
+    truth = pre + np.interp(np.arange(n), warp, np.arange(m_mid))
+    for kw in ({}, {"offset_s": pre / fps + 0.5}):
+        res = pass1(body, hands, width=30.0, ends="open", **kw)
+        assert res.covered == (0, n - 1)
+        assert abs(res.path[0, 1] - pre) <= 1
+        assert abs(res.path[-1, 1] - (pre + m_mid - 1)) <= 3     # D1's edge effect at the body's last frames
+        err = np.abs(path_median(res.path, n) - truth)
+        assert err.mean() < 1.0 and np.quantile(err, 0.95) < 3.0
+        assert res.uncovered_cost > 0
+    fixed = pass1(body, hands, width=30.0)        # the paper's fixed ends: forced through the extra material
+    assert np.abs(path_median(fixed.path, n) - truth).mean() > 10 * err.mean()
+
+
+def test_pass1_hands_cover_the_middle_half(sample_markers):
+    from splicer.align import pass1, warp_markers
+    full, _ = sample_markers
+    body = _cut(full, 140, 556)
+    n = body.n_frames
+    a, b = n // 4, 3 * n // 4
+    hands = warp_markers(body, a + np.linspace(0, b - a - 1, int((b - a) * 1.1)))
+    res = pass1(body, hands, width=30.0, ends="open")
+    assert 0 < res.covered[0] and res.covered[1] < n - 1      # uncovered at both ends
+    assert abs(res.covered[0] - a) <= 5 and abs(res.covered[1] - (b - 1)) <= 5
+
+
+def test_pass1_open_ends_hold_pins(sample_markers):
+    """A pin far from the best alignment still holds, and the path covers it."""
+    from splicer.align import pass1
+    full, other = sample_markers
+    body = _cut(full, 140, 556)
+    n = body.n_frames
+    rng = np.random.default_rng(3)
+    hands = _cat([_still(body, 0, 60, rng), body, _cut(other, 0, 60)])
+    pins = [Constraint(50, 300, 2), Constraint(300, 420, 0)]
+    res = pass1(body, hands, width=30.0, ends="open", constraints=pins)
+    for c in pins:
+        js = res.path[res.path[:, 0] == c.x, 1]
+        assert js.size and np.abs(js - c.y).max() <= c.tolerance
+    with pytest.raises(ValueError, match="ends"):
+        pass1(body, hands, width=30.0, ends="both")

@@ -22,7 +22,7 @@ from .openend import (MAX_COARSE_CELLS, UNCOVERED_QUANTILE, coarse_rate, d1_samp
 from .timewarp import sample_linear
 
 __all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
-           "remap_constraints", "warp_markers"]
+           "remap_constraints", "warp_markers", "hold_ends"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,6 +45,9 @@ class PassResult:
         ends.  Frames outside have no hands material (open ends).
     uncovered_cost : float
         Penalty per uncovered body frame the pass used (0 with fixed ends), local-cost units.
+    ends : {"fixed", "open"}
+        ``"fixed"``: the path runs from the first to the last covered row with fixed ends
+        there (the whole body, or pass 2's ``covered`` span); ``"open"``: open-ended.
     """
 
     path: np.ndarray
@@ -54,6 +57,7 @@ class PassResult:
     local_cost: object = None  # callable (band, i0, i1) -> band rows of local costs, for plots
     covered: tuple | None = None
     uncovered_cost: float = 0.0
+    ends: str = "fixed"
 
 
 def resample_markers(markers: Markers, fps: float) -> Markers:
@@ -264,7 +268,7 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
     d1 = d1_cost(fb, fh, theta=theta)
     res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u)
-    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u))
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open")
 
 
 def path_median(path: np.ndarray, n: int) -> np.ndarray:
@@ -309,7 +313,7 @@ def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):
 
 def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
           diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = 0.025,
-          dead_zone: float = 0.01, theta: str = "window", progress=None) -> PassResult:
+          dead_zone: float = 0.01, theta: str = "window", progress=None, covered=None) -> PassResult:
     """Pass 2: banded DTW with the palm metric D2 between the body and the pass-1-warped hands.
 
     Parameters
@@ -333,6 +337,13 @@ def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
         D1's settings, as in :func:`pass1`.
     progress : callable, optional
         ``progress(fraction)`` as the rows are done.
+    covered : (int, int), optional
+        After an open-ended pass 1: the first and last body frame it covers.  Pass 2 then
+        aligns only those frames (fixed ends on that span; ``hands_warped`` must still have
+        one frame per body frame, any values outside the span, e.g. :func:`hold_ends`); the
+        result's band spans every body row (rows outside the span get the span's first or
+        last interval, ``open_begin``/``open_end`` set, for plots) and its path runs from
+        ``(first, first)`` to ``(last, last)``-ish.  Constraints outside the span are dropped.
     """
     fb: PalmFeatures = palm_features(body.points)
     fh: PalmFeatures = palm_features(hands_warped.points)
@@ -340,10 +351,52 @@ def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
     if d1_weight > 0:
         d1 = d1_cost(phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone),
                      phase_features(hands_warped, smooth_s=smooth_s, dead_zone=dead_zone), theta=theta)
-    band = make_band(body.n_frames, hands_warped.n_frames, width, constraints)
+    n = body.n_frames
     cost = _pass2_cost(d2_cost(fb, fh), d1, max(width, 1.0), diagonal_weight, d1_weight)
+    if covered is not None and tuple(covered) != (0, n - 1):
+        return _pass2_span(cost, n, hands_warped.n_frames, width, constraints, covered, progress)
+    band = make_band(body.n_frames, hands_warped.n_frames, width, constraints)
     res = _run(cost, band, progress)
     return PassResult(res.path, res.cost, band, "pass2", cost, res.covered, 0.0)
+
+
+def _pass2_span(cost, n, m, width, constraints, covered, progress) -> PassResult:
+    """Pass 2 over body frames ``a..b`` only (fixed ends there), reported on the full body rows."""
+    a, b = int(covered[0]), int(covered[1])
+    if m != n:
+        raise ValueError(f"pass 2 over a covered span needs the warped hands at the body frames ({n}), got {m}")
+    if not 0 <= a <= b <= n - 1:
+        raise ValueError(f"covered span {covered} is outside the body frames 0..{n - 1}")
+    k = b - a + 1
+    sub_cons = [Constraint(c.x - a, c.y - a, c.tolerance) for c in constraints
+                if 0 < c.x - a < k - 1 and 0 < c.y - a < k - 1]
+    sub = make_band(k, k, width, sub_cons)
+    lo = np.concatenate([np.full(a, sub.lo[0] + a), sub.lo + a, np.full(n - 1 - b, sub.lo[-1] + a)])
+    hi = np.concatenate([np.full(a, sub.hi[0] + a), sub.hi + a, np.full(n - 1 - b, sub.hi[-1] + a)])
+    full = Band(n=n, m=m, width=width, lo=lo, hi=hi,
+                constraints=tuple(Constraint(c.x + a, c.y + a, c.tolerance) for c in sub_cons),
+                open_begin=True, open_end=True)
+
+    def chunk(i0, i1):
+        out = cost(full, i0 + a, i1 + a)       # rows a.. of the full band = the span's band, shifted
+        if progress is not None:
+            progress(i1 / k)
+        return out
+
+    res = dtw(chunk, sub)
+    return PassResult(res.path + a, res.cost, full, "pass2", cost, (a, b), 0.0, "fixed")
+
+
+def hold_ends(values: np.ndarray) -> np.ndarray:
+    """``values`` (n,) with NaN outside the covered span (:func:`path_median` after open ends)
+    replaced by the first / last finite value; a copy.  Raises ValueError when none is finite."""
+    v = np.array(values, dtype=np.float64)
+    ok = np.flatnonzero(np.isfinite(v))
+    if ok.size == 0:
+        raise ValueError("no covered frame")
+    v[:ok[0]] = v[ok[0]]
+    v[ok[-1] + 1:] = v[ok[-1]]
+    return v
 
 
 def warp_markers(markers: Markers, frames: np.ndarray, *, fps: float | None = None) -> Markers:

@@ -332,10 +332,30 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
     """:func:`row_confidence` of a :class:`splicer.align.PassResult` (its band, path, costs, ends).
 
     ``fps``: the rate of the pass's columns (the body rate for pass 1 and 2).  Keyword
-    arguments go to :func:`row_confidence` (``threshold``, ``error_scale_s``).
+    arguments go to :func:`row_confidence` (``threshold``, ``error_scale_s``).  A pass with
+    fixed ends over a covered span (pass 2 after an open-ended pass 1) is measured on that
+    span; the frames outside get confidence 0 and NaN errors.
     """
     if result.local_cost is None:
         raise ValueError(f"{result.name} has no local cost to measure confidence on")
     band = result.band
-    return row_confidence(lambda i0, i1: result.local_cost(band, i0, i1), band, result.path, fps,
-                          uncovered_cost=getattr(result, "uncovered_cost", 0.0), **kwargs)
+    n = band.n
+    cov = getattr(result, "covered", None) or (0, n - 1)
+    if getattr(result, "ends", "fixed") == "open" or tuple(cov) == (0, n - 1):
+        return row_confidence(lambda i0, i1: result.local_cost(band, i0, i1), band, result.path, fps,
+                              uncovered_cost=getattr(result, "uncovered_cost", 0.0), **kwargs)
+    a, b = int(cov[0]), int(cov[1])
+    # the span's own fixed-ends problem: rows a..b, columns shifted by the path's first column
+    c0 = int(result.path[0, 1])
+    sub = Band(n=b - a + 1, m=int(result.path[-1, 1]) - c0 + 1, width=band.width,
+               lo=band.lo[a:b + 1] - c0, hi=band.hi[a:b + 1] - c0)
+    conf = row_confidence(lambda i0, i1: result.local_cost(band, i0 + a, i1 + a), sub,
+                          result.path - np.array([a, c0]), fps, **kwargs)
+    def put(x, fill):
+        out = np.full(n, fill)
+        out[a:b + 1] = x
+        return out
+
+    return Confidence(spread_frames=put(conf.spread_frames, np.nan), est_error_s=put(conf.est_error_s, np.nan),
+                      confidence=put(conf.confidence, 0.0), threshold=conf.threshold,
+                      error_scale_s=conf.error_scale_s)

@@ -181,3 +181,29 @@ def as_callable_band(C):
     def cost(band, i0, i1):
         return as_callable(C, band)(i0, i1)
     return cost
+
+
+def test_pass2_over_a_covered_span_and_its_confidence(rng):
+    """Pass 2 after open ends: aligned on the covered span only, reported on every body row."""
+    from splicer.align import hold_ends, pass2, warp_markers
+    from splicer.markers import Markers
+    n = 150
+    pts = np.cumsum(rng.normal(size=(n, 4, 3)), axis=0)
+    body = Markers(pts, np.zeros((n, 3)), np.zeros(n), 1, 30.0, "right")
+    per_frame = np.full(n, np.nan)
+    per_frame[20:130] = np.arange(20, 130) + 0.3          # pass 1 covered body frames 20..129
+    hw = warp_markers(body, hold_ends(per_frame))
+    assert hold_ends(per_frame)[0] == 20.3 and hold_ends(per_frame)[-1] == 129.3
+    res = pass2(body, hw, width=10.0, covered=(20, 129))
+    assert res.covered == (20, 129) and res.band.n == n and res.ends == "fixed"
+    assert tuple(res.path[0]) == (20, 20) and tuple(res.path[-1]) == (129, 129)
+    for i, j in res.path:
+        assert res.band.contains(i, j)
+    conf = pass_confidence(res, 30.0)
+    assert conf.confidence.shape == (n,)
+    assert (conf.confidence[:20] == 0).all() and (conf.confidence[130:] == 0).all()
+    assert np.isnan(conf.est_error_s[:20]).all() and np.isfinite(conf.est_error_s[20:130]).all()
+    full = pass2(body, hw, width=10.0)
+    assert full.covered == (0, n - 1)
+    with pytest.raises(ValueError, match="no covered frame"):
+        hold_ends(np.full(3, np.nan))

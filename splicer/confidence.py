@@ -88,11 +88,12 @@ class Confidence:
 # ---------------------------------------------------------------- kernels (private, dumb)
 
 @njit(cache=True)
-def _accumulate(c, lo, hi, off, sc, ob, out, rowmin):
+def _accumulate(c, lo, hi, off, sc, ob, pen, out, rowmin):
     # Forward accumulated cost over the band (the engine's recurrence and ties do not matter
     # here, only values).  c, out: flat float32 band cells (row i at off[i] .. off[i+1]-1).
     # sc[i]: start cost of row i (+inf none; fixed begin: all +inf and (0, lo[0]) starts at 0).
     # ob: open begin, no step (i-1, j) -> (i, j) out of a cell whose best is a start.
+    # pen: added to the (i-1, j) and (i, j-1) steps.
     # out = gamma - rowmin[i] (float32); rowmin[i] = min of row i's finite gamma (+inf if none).
     n = lo.shape[0]
     wmax = 0
@@ -115,10 +116,10 @@ def _accumulate(c, lo, hi, off, sc, ob, out, rowmin):
                 if plo <= j - 1 <= phi:
                     best = prev[j - 1 - plo]
                 if plo <= j <= phi and not (ob and pst[j - plo]):
-                    if prev[j - plo] < best:
-                        best = prev[j - plo]
-            if k > 0 and cur[k - 1] < best:
-                best = cur[k - 1]
+                    if prev[j - plo] + pen < best:
+                        best = prev[j - plo] + pen
+            if k > 0 and cur[k - 1] + pen < best:
+                best = cur[k - 1] + pen
             if ob or i == 0:
                 s = sc[i] if ob else (0.0 if k == 0 else np.inf)
                 if s < best:
@@ -211,7 +212,7 @@ def _reverse_band(band: Band):
 
 
 def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end: bool | None = None,
-                  uncovered_cost: float = 0.0):
+                  uncovered_cost: float = 0.0, step_penalty: float = 0.0):
     """Forward and backward accumulated costs over the band (see module docstring).
 
     Parameters
@@ -221,8 +222,8 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
     band : Band
     open_begin, open_end : bool, optional
         End conditions (default: the band's ``open_begin`` / ``open_end``).
-    uncovered_cost : float
-        Penalty per uncovered body row, as in :func:`splicer.dtw.dtw`.
+    uncovered_cost, step_penalty : float
+        As in :func:`splicer.dtw.dtw`.
 
     Returns
     -------
@@ -236,6 +237,9 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
     ob = band.open_begin if open_begin is None else bool(open_begin)
     oe = band.open_end if open_end is None else bool(open_end)
     sc, ec = end_costs(band, ob, oe, uncovered_cost)
+    pen = float(step_penalty)
+    if not (pen >= 0 and np.isfinite(pen)):
+        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
     n = band.n
     widths = band.hi - band.lo + 1
     off = np.zeros(n + 1, np.int64)
@@ -245,7 +249,7 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
     hi = np.ascontiguousarray(band.hi, np.int64)
     fwd = np.empty_like(c)
     fmin = np.empty(n)
-    _accumulate(c, lo, hi, off, sc, ob, fwd, fmin)
+    _accumulate(c, lo, hi, off, sc, ob, pen, fwd, fmin)
     rlo, rhi = _reverse_band(band)
     roff = np.zeros(n + 1, np.int64)
     np.cumsum((rhi - rlo + 1), out=roff[1:])
@@ -254,7 +258,7 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
         rc[roff[n - 1 - i]:roff[n - i]] = c[off[i]:off[i + 1]][::-1]
     bwd = np.empty_like(c)
     bmin = np.empty(n)
-    _accumulate(rc, rlo, rhi, roff, ec[::-1].copy(), oe, bwd, bmin)
+    _accumulate(rc, rlo, rhi, roff, ec[::-1].copy(), oe, pen, bwd, bmin)
 
     def through(i):
         ri = n - 1 - i
@@ -266,7 +270,7 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
 
 
 def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin: bool | None = None,
-                   open_end: bool | None = None, uncovered_cost: float = 0.0,
+                   open_end: bool | None = None, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
                    threshold: float = CONFIDENCE_THRESHOLD, error_scale_s: float = 0.1) -> Confidence:
     """Per-body-frame spread, estimated error and confidence of an alignment.
 
@@ -282,8 +286,8 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
         Frame rate of the columns (hands frames at the alignment's rate), frames per second.
     open_begin, open_end : bool, optional
         End conditions of the alignment (default: the band's flags).
-    uncovered_cost : float
-        Penalty per uncovered body row the alignment used.
+    uncovered_cost, step_penalty : float
+        Penalties the alignment used (:func:`splicer.dtw.dtw`).
     threshold : float
         Excess threshold in units of the median local cost along the path (> 0).
     error_scale_s : float
@@ -309,13 +313,16 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
     if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] < 1:
         raise ValueError(f"path must have shape (K, 2), got {path.shape}")
     n = band.n
-    _, (c, fwd, fmin, bwd, bmin, off, roff) = through_costs(cost, band, open_begin=open_begin,
-                                                            open_end=open_end, uncovered_cost=uncovered_cost)
+    _, (c, fwd, fmin, bwd, bmin, off, roff) = through_costs(cost, band, open_begin=open_begin, open_end=open_end,
+                                                            uncovered_cost=uncovered_cost, step_penalty=step_penalty)
     # the path's own cost: local costs along it plus its uncovered rows
     idx = off[path[:, 0]] + path[:, 1] - band.lo[path[:, 0]]
     local = c[idx].astype(np.float64)
     covered = (int(path[0, 0]), int(path[-1, 0]))
-    optimum = float(local.sum()) + float(uncovered_cost) * (covered[0] + (n - 1 - covered[1]))
+    d = np.diff(path, axis=0)
+    bends = int(np.count_nonzero((d[:, 0] == 0) | (d[:, 1] == 0)))
+    optimum = (float(local.sum()) + float(uncovered_cost) * (covered[0] + (n - 1 - covered[1]))
+               + float(step_penalty) * bends)
     tau = float(threshold) * max(float(np.median(local)), 1e-12)
     jc = path_median(path, n)
     spread = np.full(n, np.nan)
@@ -343,14 +350,16 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
     cov = getattr(result, "covered", None) or (0, n - 1)
     if getattr(result, "ends", "fixed") == "open" or tuple(cov) == (0, n - 1):
         return row_confidence(lambda i0, i1: result.local_cost(band, i0, i1), band, result.path, fps,
-                              uncovered_cost=getattr(result, "uncovered_cost", 0.0), **kwargs)
+                              uncovered_cost=getattr(result, "uncovered_cost", 0.0),
+                              step_penalty=getattr(result, "step_penalty", 0.0), **kwargs)
     a, b = int(cov[0]), int(cov[1])
     # the span's own fixed-ends problem: rows a..b, columns shifted by the path's first column
     c0 = int(result.path[0, 1])
     sub = Band(n=b - a + 1, m=int(result.path[-1, 1]) - c0 + 1, width=band.width,
                lo=band.lo[a:b + 1] - c0, hi=band.hi[a:b + 1] - c0)
     conf = row_confidence(lambda i0, i1: result.local_cost(band, i0 + a, i1 + a), sub,
-                          result.path - np.array([a, c0]), fps, **kwargs)
+                          result.path - np.array([a, c0]), fps, step_penalty=getattr(result, "step_penalty", 0.0),
+                          **kwargs)
     def put(x, fill):
         out = np.full(n, fill)
         out[a:b + 1] = x

@@ -3,9 +3,9 @@
 Recurrence (0-based, path from ``(0, 0)`` to ``(n - 1, m - 1)``)::
 
     gamma[0, 0] = c[0, 0]
-    gamma[i, j] = c[i, j] + min(gamma[i-1, j-1], gamma[i-1, j], gamma[i, j-1])
+    gamma[i, j] = c[i, j] + min(gamma[i-1, j-1], gamma[i-1, j] + p, gamma[i, j-1] + p)
 
-over the admissible cells of a :class:`~splicer.band.Band`; cells outside the band are
+(``p = step_penalty``, 0 by default: the paper) over the admissible cells of a :class:`~splicer.band.Band`; cells outside the band are
 ``+inf``.  Ties are broken deterministically: the diagonal predecessor ``(i-1, j-1)`` is
 preferred, then ``(i-1, j)``, then ``(i, j-1)`` (a later candidate wins only if it is
 strictly smaller).
@@ -68,6 +68,8 @@ class DTWResult:
         The end conditions the path was computed with.
     uncovered_cost : float
         Penalty per uncovered body row included in ``cost``.
+    step_penalty : float
+        Penalty per non-diagonal step included in ``cost``.
     """
 
     path: np.ndarray
@@ -77,18 +79,20 @@ class DTWResult:
     open_begin: bool = False
     open_end: bool = False
     uncovered_cost: float = 0.0
+    step_penalty: float = 0.0
 
 
 # ---------------------------------------------------------------- kernels (private, dumb)
 
 @njit(cache=True)
-def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0):
+def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
     # One DP row.  crow[c0 + k]: local cost of column L + k; prev[k]: gamma of the previous
     # row at column plo + k (columns plo..phi); writes cur[0..H-L], steps[s0 + k].
     # Step codes: 0 diagonal, 1 from (i-1, j), 2 from (i, j-1), 3 the path starts here at
     # cost sc (+inf: no start in this row).  Requires plo <= L <= phi + 1.
     # ob (open begin): no step (i-1, j) -> (i, j) out of a start cell (steps[p0 + k] == 3 for
     # the previous row): body rows before the first hands frame are uncovered, not held.
+    # pen: added to the (i-1, j) and (i, j-1) steps (0: the paper's recurrence).
     inf = np.inf
     w = H - L + 1
     d = L - plo
@@ -97,7 +101,7 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0):
     if d > 0:
         best = prev[d - 1]
     if L <= phi:
-        up = prev[d]
+        up = prev[d] + pen
         if ob and steps[p0 + d] == 3:
             up = inf
         if up < best:
@@ -118,11 +122,12 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0):
         left = cur[0]
         for t in range(kend):             # branch-free: selects, not jumps
             a = dg[t]
-            u = inf if (ob and ps[t] == 3) else up[t]
+            u = inf if (ob and ps[t] == 3) else up[t] + pen
             su = u < a
             best = u if su else a
-            sl = left < best
-            b2 = left if sl else best
+            lp = left + pen
+            sl = lp < best
+            b2 = lp if sl else best
             ss = sc < b2
             st[t] = 3 if ss else (2 if sl else (1 if su else 0))
             left = cr[t] + (sc if ss else b2)
@@ -131,7 +136,7 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0):
     if k < w and L + k == phi + 1:        # diagonal and left only
         best = prev[phi - plo]
         s = 0
-        left = cur[k - 1]
+        left = cur[k - 1] + pen
         if left < best:
             best = left
             s = 2
@@ -146,14 +151,15 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0):
         st = steps[s0 + k:s0 + w]
         left = cur[k - 1]
         for t in range(w - k):
-            ss = sc < left
-            left = cr[t] + (sc if ss else left)
+            lp = left + pen
+            ss = sc < lp
+            left = cr[t] + (sc if ss else lp)
             cur[k + t] = left
             st[t] = 3 if ss else 2
 
 
 @njit(cache=True)
-def _dp_first_row(crow, c0, w, cur, steps, sc):
+def _dp_first_row(crow, c0, w, cur, steps, sc, pen):
     # Row 0: columns lo[0] .. lo[0] + w - 1.  The path starts at the first cell (fixed begin:
     # (0, 0)) or, with sc finite (open begin), at any cell where sc is strictly below the
     # accumulated cost from the left.
@@ -162,7 +168,7 @@ def _dp_first_row(crow, c0, w, cur, steps, sc):
         cur[0] += sc
     steps[0] = 3
     for k in range(1, w):
-        left = cur[k - 1]
+        left = cur[k - 1] + pen
         if sc < left:
             cur[k] = crow[c0 + k] + sc
             steps[k] = 3
@@ -187,7 +193,7 @@ def _scan_end(cur, w, ec, i, L, best, steps, s0):
 
 
 @njit(cache=True)
-def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best):
+def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen):
     # Rows i0..i1-1 from cost block C (row r = i - i0); column j of row i is at C[r, j] if
     # absolute else C[r, j - lo[i]].  rows: (2, width) gamma buffer indexed by row parity.
     # sc[i]: start cost in row i (+inf: none; row 0 always starts); ec[i]: end cost (+inf: none).
@@ -196,16 +202,16 @@ def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best):
         c0 = lo[i] if absolute else 0
         cur = rows[i & 1]
         if i == 0:
-            _dp_first_row(C[r], c0, hi[0] - lo[0] + 1, cur, steps, sc[0])
+            _dp_first_row(C[r], c0, hi[0] - lo[0] + 1, cur, steps, sc[0], pen)
         else:
             _dp_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
-                    steps, off[i], sc[i], sc[0] < np.inf, off[i - 1])
+                    steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
         if ec[i] < np.inf:
             _scan_end(cur, hi[i] - lo[i] + 1, ec[i], i, lo[i], best, steps, off[i])
 
 
 @njit(cache=True)
-def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best):
+def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen):
     # Whole DP with local cost from features: X (n, d), Yt (d, m) (Y transposed);
     # metric 0 squared Euclidean, 1 Euclidean.  Start / end costs as _dp_rows.
     n, d = X.shape
@@ -225,10 +231,10 @@ def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best):
                 c[k] = np.sqrt(c[k])
         cur = rows[i & 1]
         if i == 0:
-            _dp_first_row(crow, 0, w, cur, steps, sc[0])
+            _dp_first_row(crow, 0, w, cur, steps, sc[0], pen)
         else:
             _dp_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
-                    off[i], sc[i], sc[0] < np.inf, off[i - 1])
+                    off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
         if ec[i] < np.inf:
             _scan_end(cur, w, ec[i], i, L, best, steps, off[i])
 
@@ -321,7 +327,7 @@ def end_costs(band: Band, open_begin: bool, open_end: bool, uncovered_cost: floa
     return start, end
 
 
-def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u):
+def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0):
     if open_end:
         cost, iend, jend = float(best[0]), int(best[1]), int(best[2])
     else:
@@ -333,7 +339,15 @@ def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u):
                         "+inf local cost)")
     path = _backtrack(lo, off, steps, iend, jend)
     return DTWResult(path=path, cost=cost, band=band, covered=(int(path[0, 0]), int(path[-1, 0])),
-                     open_begin=bool(open_begin), open_end=bool(open_end), uncovered_cost=float(u))
+                     open_begin=bool(open_begin), open_end=bool(open_end), uncovered_cost=float(u),
+                     step_penalty=float(pen))
+
+
+def _penalty(step_penalty) -> float:
+    p = float(step_penalty)
+    if not (p >= 0 and np.isfinite(p)):
+        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
+    return p
 
 
 def _check_costs(block, what):
@@ -344,7 +358,7 @@ def _check_costs(block, what):
 
 
 def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
-        uncovered_cost: float = 0.0) -> DTWResult:
+        uncovered_cost: float = 0.0, step_penalty: float = 0.0) -> DTWResult:
     """Banded DTW with path, on given local costs.
 
     Parameters
@@ -369,6 +383,11 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
     uncovered_cost : float, default 0
         Penalty per uncovered body row, in local-cost units (>= 0); it keeps a shorter
         overlap from winning just for being short.  Unused with fixed ends.
+    step_penalty : float, default 0
+        Beyond the paper: added to every ``(i-1, j)`` and ``(i, j-1)`` step (local-cost units,
+        >= 0), so where the costs are flat (a still arm) the path keeps the current speed
+        instead of wandering, and unrelated material is harder to fit by warping.  Included
+        in ``cost``.  0 is the paper's recurrence.
 
     Returns
     -------
@@ -393,6 +412,7 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
         raise TypeError(f"band must be a splicer.dtw.Band, got {type(band).__name__}")
     n, m = band.n, band.m
     sc, ec = end_costs(band, open_begin, open_end, uncovered_cost)
+    pen = _penalty(step_penalty)
     lo, hi, off, wmax, steps, rows = _workspace(band)
     best = np.array([np.inf, -1.0, -1.0])
     if callable(cost):
@@ -407,19 +427,19 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
             # only the band part of each row is checked (padding is ignored)
             mask = np.arange(wmax)[None, :] <= (hi[i0:i1] - lo[i0:i1])[:, None]
             _check_costs(np.where(mask, block, 0.0), f"rows {i0}..{i1 - 1}")
-            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best)
+            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen)
     else:
         c = np.asarray(cost)
         if c.shape != (n, m):
             raise ValueError(f"cost matrix must have shape (n, m) = ({n}, {m}), got {c.shape}")
         c = np.ascontiguousarray(c, dtype=np.float64)
         _check_costs(c, "matrix")
-        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best)
-    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost)
+        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen)
 
 
 def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: bool = False,
-                 open_end: bool = False, uncovered_cost: float = 0.0) -> DTWResult:
+                 open_end: bool = False, uncovered_cost: float = 0.0, step_penalty: float = 0.0) -> DTWResult:
     """Banded DTW with path, local cost computed on the fly from feature vectors.
 
     Parameters
@@ -432,7 +452,7 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
         Admissible cells, with ``band.n == n`` and ``band.m == m``.
     metric : {"sqeuclidean", "euclidean"}
         Local cost: squared Euclidean distance (units of X squared) or Euclidean distance.
-    open_begin, open_end, uncovered_cost
+    open_begin, open_end, uncovered_cost, step_penalty
         As :func:`dtw`.
 
     Returns
@@ -464,10 +484,11 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
         if not np.isfinite(a).all():
             raise ValueError(f"{name} contains NaN or inf")
     sc, ec = end_costs(band, open_begin, open_end, uncovered_cost)
+    pen = _penalty(step_penalty)
     Xc = np.ascontiguousarray(X)
     Yt = np.ascontiguousarray(Y.T)
     lo, hi, off, wmax, steps, rows = _workspace(band)
     crow = np.empty(wmax)
     best = np.array([np.inf, -1.0, -1.0])
-    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best)
-    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost)
+    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen)

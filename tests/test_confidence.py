@@ -19,7 +19,7 @@ def rng():
     return np.random.default_rng(4242)
 
 
-def ref_through(C, mask, ob, oe, u, cons=()):
+def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0):
     """fwd + bwd - c on the full matrix, each filled by explicit loops (bwd directly, not by reversal).
 
     fwd: start at (0, 0) (fixed) or anywhere in rows <= first pin at u * i (open; no step
@@ -39,9 +39,9 @@ def ref_through(C, mask, ob, oe, u, cons=()):
             if i > 0 and j > 0:
                 best = min(best, f[i - 1, j - 1])
             if i > 0 and not (ob and fst[i - 1, j]):
-                best = min(best, f[i - 1, j])
+                best = min(best, f[i - 1, j] + pen)
             if j > 0:
-                best = min(best, f[i, j - 1])
+                best = min(best, f[i, j - 1] + pen)
             s = (u * i if i <= last_start else np.inf) if ob else (0.0 if (i, j) == (0, 0) else np.inf)
             if s < best:
                 best, fst[i, j] = s, True
@@ -56,9 +56,9 @@ def ref_through(C, mask, ob, oe, u, cons=()):
             if i < n - 1 and j < m - 1:
                 best = min(best, b[i + 1, j + 1])
             if i < n - 1 and not (oe and bst[i + 1, j]):
-                best = min(best, b[i + 1, j])
+                best = min(best, b[i + 1, j] + pen)
             if j < m - 1:
-                best = min(best, b[i, j + 1])
+                best = min(best, b[i, j + 1] + pen)
             e = (u * (n - 1 - i) if i >= first_end else np.inf) if oe else (0.0 if (i, j) == (n - 1, m - 1) else np.inf)
             if e < best:
                 best, bst[i, j] = e, True
@@ -74,14 +74,15 @@ def test_through_costs_match_reference(rng, ends, n, m):
     for trial in range(4):
         C = rng.random((n, m)) * 3
         u = float(rng.choice([0.0, 0.5, 2.0]))
+        pen = float(rng.choice([0.0, 0.3]))
         cons = random_constraints(rng, n, m, int(rng.integers(0, 3)), int(rng.integers(0, 2)))
         try:
             band = full_band(n, m, cons, open_begin=ob, open_end=oe) if trial % 2 else make_band(n, m, 6.0, cons)
         except Exception:
             continue
-        ref = ref_through(C, band_mask(band), ob, oe, u, band.constraints)
+        ref = ref_through(C, band_mask(band), ob, oe, u, band.constraints, pen)
         for cost in (C, as_callable(C, band)):
-            through, _ = through_costs(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u)
+            through, _ = through_costs(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen)
             for i in range(n):
                 cols, vals = through(i)
                 np.testing.assert_allclose(vals, ref[i, cols], rtol=1e-5, atol=1e-4)
@@ -106,8 +107,8 @@ def test_row_minimum_is_the_optimum_on_covered_rows(rng, ends):
     n, m = 40, 55
     C = rng.random((n, m))
     band = full_band(n, m, open_begin=ends[0], open_end=ends[1]) if ends[0] else make_band(n, m, 30.0)
-    res = dtw(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3)
-    through, _ = through_costs(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3)
+    res = dtw(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3, step_penalty=0.1)
+    through, _ = through_costs(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3, step_penalty=0.1)
     for i in range(res.covered[0], res.covered[1] + 1):
         _, vals = through(i)
         assert vals.min() == pytest.approx(res.cost, rel=1e-5)

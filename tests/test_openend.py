@@ -24,7 +24,7 @@ def rng():
 
 # ------------------------------------------------------------------ slow reference
 
-def ref_open_dtw(C, mask, open_begin, open_end, u, cons=()):
+def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0):
     """Full-matrix DTW with open ends, straight from the definition.
 
     Start: (0, 0) at cost 0 (fixed), or any admissible cell (i, j) with i <= first pin row at
@@ -33,6 +33,7 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=()):
     leave body rows beyond the hands take uncovered rather than held: no step (i-1, j) -> (i, j)
     out of a start cell, no end on a cell whose chosen step is (i-1, j) -> (i, j).
     Ties between candidates: diagonal, up, left, start (a later one must be strictly smaller).
+    ``pen`` is added to the up and left candidates.
     """
     n, m = C.shape
     last_start = cons[0].x if cons else n - 1
@@ -45,8 +46,8 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=()):
                 continue
             up_ok = i > 0 and not (open_begin and step[i - 1, j] == 3)   # no hold out of a start
             cands = [(g[i - 1, j - 1] if i > 0 and j > 0 else np.inf, 0),
-                     (g[i - 1, j] if up_ok else np.inf, 1),
-                     (g[i, j - 1] if j > 0 else np.inf, 2)]
+                     (g[i - 1, j] + pen if up_ok else np.inf, 1),
+                     (g[i, j - 1] + pen if j > 0 else np.inf, 2)]
             if open_begin and i <= last_start:
                 cands.append((u * i, 3))
             elif not open_begin and i == 0 and j == 0:
@@ -108,6 +109,7 @@ def test_open_ends_match_reference(rng, n, m, ends):
         C = rng.random((n, m)) * rng.choice([1.0, 3.0])
         C[rng.random((n, m)) < 0.05] = np.inf if trial % 3 == 0 else C[0, 0]
         u = float(rng.choice([0.0, 0.2, 0.5, 2.0]))
+        pen = float(rng.choice([0.0, 0.0, 0.1, 0.7]))
         cons = random_constraints(rng, n, m, int(rng.integers(0, 3)), int(rng.integers(0, 3)))
         try:
             if trial % 2:
@@ -119,13 +121,13 @@ def test_open_ends_match_reference(rng, n, m, ends):
                 mask = ref_mask(n, m, W, band.constraints)
         except SplicerError:                  # infeasible random constraints
             continue
-        ref_cost, ref_path = ref_open_dtw(C, mask, ob, oe, u, band.constraints)
+        ref_cost, ref_path = ref_open_dtw(C, mask, ob, oe, u, band.constraints, pen)
         if ref_path is None:
             with pytest.raises(BandError, match="no path of finite cost"):
-                dtw(C, band, open_begin=ob, open_end=oe, uncovered_cost=u)
+                dtw(C, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen)
             continue
         for cost in (C, as_callable(C, band)):
-            res = dtw(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u)
+            res = dtw(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen)
             assert res.cost == pytest.approx(ref_cost, rel=1e-12, abs=1e-12)
             np.testing.assert_array_equal(res.path, ref_path)
             assert res.covered == (ref_path[0, 0], ref_path[-1, 0])
@@ -142,8 +144,8 @@ def test_features_kernel_matches_reference(rng, ends):
     X, Y = rng.normal(size=(n, 3)), rng.normal(size=(m, 3))
     band = full_band(n, m, open_begin=ob, open_end=oe)
     for metric, C in (("sqeuclidean", sqdist(X, Y)), ("euclidean", np.sqrt(sqdist(X, Y)))):
-        ref_cost, ref_path = ref_open_dtw(C, band_mask(band), ob, oe, 1.0)
-        res = dtw_features(X, Y, band, metric, open_begin=ob, open_end=oe, uncovered_cost=1.0)
+        ref_cost, ref_path = ref_open_dtw(C, band_mask(band), ob, oe, 1.0, (), 0.25)
+        res = dtw_features(X, Y, band, metric, open_begin=ob, open_end=oe, uncovered_cost=1.0, step_penalty=0.25)
         assert res.cost == pytest.approx(ref_cost, rel=1e-12)
         np.testing.assert_array_equal(res.path, ref_path)
 
@@ -187,6 +189,8 @@ def test_open_band_needs_open_ends(rng):
     assert res.covered == (0, 2)
     with pytest.raises(ValueError, match="uncovered_cost"):
         dtw(C, band, open_begin=True, open_end=True, uncovered_cost=-1.0)
+    with pytest.raises(ValueError, match="step_penalty"):
+        dtw(C, band, open_begin=True, open_end=True, step_penalty=np.nan)
     with pytest.raises(BandError, match="lo\\[0\\]"):
         Band(n=3, m=5, width=2.0, lo=np.array([1, 1, 2]), hi=np.array([2, 3, 4]))
 
@@ -383,3 +387,18 @@ def test_pass1_open_ends_hold_pins(sample_markers):
         assert js.size and np.abs(js - c.y).max() <= c.tolerance
     with pytest.raises(ValueError, match="ends"):
         pass1(body, hands, width=30.0, ends="both")
+
+
+def test_step_penalty_keeps_the_diagonal_through_a_flat_region():
+    """Equal costs everywhere: without a penalty the tie rule decides; with one the diagonal wins."""
+    C = np.ones((6, 6))
+    band = make_band(6, 6, 1e6)
+    res = dtw(C, band, step_penalty=0.5)
+    np.testing.assert_array_equal(res.path, np.stack([np.arange(6)] * 2, axis=1))
+    C[2, 2] = C[3, 3] = 4.0      # a bump on the diagonal (12 in total); a detour: 7 cells + 2 bends
+    res = dtw(C, band, step_penalty=0.5)
+    assert res.cost == 7 + 2 * 0.5
+    assert not {(2, 2), (3, 3)} & set(map(tuple, res.path))
+    hi = dtw(C, band, step_penalty=10.0)
+    np.testing.assert_array_equal(hi.path, np.stack([np.arange(6)] * 2, axis=1))
+    assert hi.cost == 12.0 and hi.step_penalty == 10.0

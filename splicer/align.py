@@ -48,6 +48,8 @@ class PassResult:
     ends : {"fixed", "open"}
         ``"fixed"``: the path runs from the first to the last covered row with fixed ends
         there (the whole body, or pass 2's ``covered`` span); ``"open"``: open-ended.
+    step_penalty : float
+        Penalty per non-diagonal step the pass used (0: the paper).
     """
 
     path: np.ndarray
@@ -58,6 +60,7 @@ class PassResult:
     covered: tuple | None = None
     uncovered_cost: float = 0.0
     ends: str = "fixed"
+    step_penalty: float = 0.0
 
 
 def resample_markers(markers: Markers, fps: float) -> Markers:
@@ -154,7 +157,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           dead_zone: float = 0.01, theta: str = "window", coarse_fps: float | None = None,
           coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
-          max_coarse_cells: int = MAX_COARSE_CELLS) -> PassResult:
+          max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -197,6 +200,9 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         Open ends: the penalty itself (D1 units per body frame), overriding the quantile.
     max_coarse_cells : int
         Open ends: cap on the coarse matrix (1 byte of DTW steps per cell).
+    step_penalty : float
+        Beyond the paper: D1 units added to every non-diagonal step, in every DTW of the pass
+        (:func:`splicer.dtw.dtw`); 0 is the paper's recurrence.
 
     Returns
     -------
@@ -211,7 +217,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                            dead_zone=dead_zone, theta=theta, coarse_fps=5.0 if coarse_fps is None else coarse_fps,
                            coarse_width=coarse_width, progress=progress, offset_s=offset_s,
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
-                           max_coarse_cells=max_coarse_cells)
+                           max_coarse_cells=max_coarse_cells, step_penalty=step_penalty)
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
     n, m = body.n_frames, hands.n_frames
@@ -220,7 +226,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
         ccons = _coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)
         cw = (coarse_width if coarse_width is not None else width) / factor
-        coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta)
+        coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta,
+                       step_penalty=step_penalty)
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints)
         except BandError:
@@ -228,12 +235,12 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     else:
         band = make_band(n, m, width, constraints)
     d1 = d1_cost(fb, fh, theta=theta)
-    res = _run(d1, band, progress)
-    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0)
+    res = _run(d1, band, progress, step_penalty=step_penalty)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty)
 
 
 def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, coarse_fps, coarse_width, progress,
-                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells):
+                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty):
     n, m = body.n_frames, hands.n_frames
     cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
     factor = body.fps / cfps
@@ -254,7 +261,8 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
     else:
         cw = (coarse_width if coarse_width is not None else 30.0 * body.fps) / factor
         cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
-    coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u)
+    coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u,
+                 step_penalty=step_penalty)
     if progress is not None:
         progress(0.0)
     if factor > 1.0:
@@ -267,8 +275,8 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
     d1 = d1_cost(fb, fh, theta=theta)
-    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u)
-    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open")
+    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty)
 
 
 def path_median(path: np.ndarray, n: int) -> np.ndarray:

@@ -91,8 +91,9 @@ class Confidence:
 def _accumulate(c, lo, hi, off, sc, ob, pen, out, rowmin):
     # Forward accumulated cost over the band (the engine's recurrence and ties do not matter
     # here, only values).  c, out: flat float32 band cells (row i at off[i] .. off[i+1]-1).
-    # sc[i]: start cost of row i (+inf none; fixed begin: all +inf and (0, lo[0]) starts at 0).
-    # ob: open begin, no step (i-1, j) -> (i, j) out of a cell whose best is a start.
+    # sc[i]: start cost of row i, anywhere in row 0 or at column 0 of row i (+inf none; fixed
+    # begin: all +inf and (0, lo[0]) starts at 0).
+    # ob: open begin, no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.
     # pen: added to the (i-1, j) and (i, j-1) steps.
     # out = gamma - rowmin[i] (float32); rowmin[i] = min of row i's finite gamma (+inf if none).
     n = lo.shape[0]
@@ -115,13 +116,13 @@ def _accumulate(c, lo, hi, off, sc, ob, pen, out, rowmin):
                 phi = hi[i - 1]
                 if plo <= j - 1 <= phi:
                     best = prev[j - 1 - plo]
-                if plo <= j <= phi and not (ob and pst[j - plo]):
+                if plo <= j <= phi and not (ob and j == 0 and pst[j - plo]):
                     if prev[j - plo] + pen < best:
                         best = prev[j - plo] + pen
             if k > 0 and cur[k - 1] + pen < best:
                 best = cur[k - 1] + pen
-            if ob or i == 0:
-                s = sc[i] if ob else (0.0 if k == 0 else np.inf)
+            if (ob and (i == 0 or j == 0)) or (i == 0 and k == 0):
+                s = sc[i] if ob else 0.0
                 if s < best:
                     best = s
                     isst = True

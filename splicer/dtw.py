@@ -12,14 +12,16 @@ strictly smaller).
 
 Open ends (beyond the paper, ALGORITHM.md section 9; off by default)::
 
-    open begin:  gamma[i, j] = c[i, j] + min(predecessors, u * i)       (start anywhere)
-    open end:    cost = min over (i, j) of gamma[i, j] + u * (n - 1 - i)   (end anywhere)
+    open begin:  gamma[0, j] = c[0, j] + min(gamma[0, j-1] + p, 0)        (start at any (0, j))
+                 gamma[i, 0] = c[i, 0] + min(predecessors, u * i)         (or at any (i, 0))
+    open end:    cost = min(min_j gamma[n-1, j], min_i gamma[i, m-1] + u * (n - 1 - i))
 
-``u`` (``uncovered_cost``) is the penalty per body row the path leaves uncovered; hands
-frames skipped at either end are free.  Body rows beyond the hands take are left uncovered,
-not held on its first or last frame: with an open begin no step ``(i-1, j) -> (i, j)``
-leaves a start cell, and with an open end the path cannot end on a cell its best
-predecessor reaches by that step.  A start wins only if strictly cheaper than every
+A path starting at ``(0, j)`` skips hands frames ``0..j-1`` (free: the hands take started
+earlier); one starting at ``(i, 0)`` leaves body rows ``0..i-1`` uncovered (the hands take
+started later), at ``u`` (``uncovered_cost``) each, and likewise at the end.  Body rows
+beyond the hands take are left uncovered, not held on its first or last frame: no step
+``(i-1, 0) -> (i, 0)`` leaves a start cell, and the path cannot end on column ``m - 1``
+entered by a step ``(i-1, m-1) -> (i, m-1)``.  A start wins only if strictly cheaper than every
 predecessor, an end only if strictly cheaper than every earlier one (rows, then columns,
 in increasing order).  With constraints the path must start at or before the first
 constraint's row and end at or after the last one, so every constraint is still honoured.
@@ -88,10 +90,11 @@ class DTWResult:
 def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
     # One DP row.  crow[c0 + k]: local cost of column L + k; prev[k]: gamma of the previous
     # row at column plo + k (columns plo..phi); writes cur[0..H-L], steps[s0 + k].
-    # Step codes: 0 diagonal, 1 from (i-1, j), 2 from (i, j-1), 3 the path starts here at
-    # cost sc (+inf: no start in this row).  Requires plo <= L <= phi + 1.
-    # ob (open begin): no step (i-1, j) -> (i, j) out of a start cell (steps[p0 + k] == 3 for
-    # the previous row): body rows before the first hands frame are uncovered, not held.
+    # Step codes: 0 diagonal, 1 from (i-1, j), 2 from (i, j-1), 3 the path starts here.
+    # Requires plo <= L <= phi + 1.
+    # sc: start cost at column 0 of this row (+inf: none; only used when L == 0).
+    # ob (open begin): no step (i-1, 0) -> (i, 0) out of a start cell (steps[p0] == 3): body
+    # rows before the first hands frame are uncovered, not held on it.
     # pen: added to the (i-1, j) and (i, j-1) steps (0: the paper's recurrence).
     inf = np.inf
     w = H - L + 1
@@ -102,12 +105,12 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
         best = prev[d - 1]
     if L <= phi:
         up = prev[d] + pen
-        if ob and steps[p0 + d] == 3:
+        if ob and L == 0 and steps[p0] == 3:
             up = inf
         if up < best:
             best = up
             s = 1
-    if sc < best:
+    if L == 0 and sc < best:
         best = sc
         s = 3
     cur[0] = crow[c0] + best
@@ -118,19 +121,16 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
         up = prev[d + 1:d + 1 + kend]
         cr = crow[c0 + 1:c0 + 1 + kend]
         st = steps[s0 + 1:s0 + 1 + kend]
-        ps = steps[p0 + d + 1:p0 + d + 1 + kend]
         left = cur[0]
         for t in range(kend):             # branch-free: selects, not jumps
             a = dg[t]
-            u = inf if (ob and ps[t] == 3) else up[t] + pen
+            u = up[t] + pen
             su = u < a
             best = u if su else a
             lp = left + pen
             sl = lp < best
-            b2 = lp if sl else best
-            ss = sc < b2
-            st[t] = 3 if ss else (2 if sl else (1 if su else 0))
-            left = cr[t] + (sc if ss else b2)
+            st[t] = 2 if sl else (1 if su else 0)
+            left = cr[t] + (lp if sl else best)
             cur[t + 1] = left
     k = max(kend + 1, 1)
     if k < w and L + k == phi + 1:        # diagonal and left only
@@ -140,9 +140,6 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
         if left < best:
             best = left
             s = 2
-        if sc < best:
-            best = sc
-            s = 3
         cur[k] = crow[c0 + k] + best
         steps[s0 + k] = s
         k += 1
@@ -151,11 +148,9 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
         st = steps[s0 + k:s0 + w]
         left = cur[k - 1]
         for t in range(w - k):
-            lp = left + pen
-            ss = sc < lp
-            left = cr[t] + (sc if ss else lp)
+            left = cr[t] + left + pen
             cur[k + t] = left
-            st[t] = 3 if ss else 2
+            st[t] = 2
 
 
 @njit(cache=True)
@@ -178,12 +173,16 @@ def _dp_first_row(crow, c0, w, cur, steps, sc, pen):
 
 
 @njit(cache=True)
-def _scan_end(cur, w, ec, i, L, best, steps, s0):
+def _scan_end(cur, w, ec, i, L, best, steps, s0, last_row, m):
     # Open end: best = [cost, row, column] of the cheapest gamma + ec so far (strictly smaller
-    # wins), over cells not entered by a step (i-1, j): body rows after the last hands frame
-    # are uncovered, not held.
-    for k in range(w):
-        if steps[s0 + k] == 1:
+    # wins).  Ends: any cell of the last row, or column m - 1 of an earlier row; not on
+    # column m - 1 entered by a step (i-1, j): body rows after the last hands frame are
+    # uncovered, not held on it.
+    k0 = 0 if last_row else w - 1
+    if not last_row and L + w - 1 != m - 1:
+        return
+    for k in range(k0, w):
+        if L + k == m - 1 and steps[s0 + k] == 1:
             continue
         v = cur[k] + ec
         if v < best[0]:
@@ -193,7 +192,7 @@ def _scan_end(cur, w, ec, i, L, best, steps, s0):
 
 
 @njit(cache=True)
-def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen):
+def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, m):
     # Rows i0..i1-1 from cost block C (row r = i - i0); column j of row i is at C[r, j] if
     # absolute else C[r, j - lo[i]].  rows: (2, width) gamma buffer indexed by row parity.
     # sc[i]: start cost in row i (+inf: none; row 0 always starts); ec[i]: end cost (+inf: none).
@@ -207,7 +206,8 @@ def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen):
             _dp_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
                     steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
         if ec[i] < np.inf:
-            _scan_end(cur, hi[i] - lo[i] + 1, ec[i], i, lo[i], best, steps, off[i])
+            _scan_end(cur, hi[i] - lo[i] + 1, ec[i], i, lo[i], best, steps, off[i], i == lo.shape[0] - 1,
+                      m)
 
 
 @njit(cache=True)
@@ -236,7 +236,7 @@ def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen):
             _dp_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
                     off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
         if ec[i] < np.inf:
-            _scan_end(cur, w, ec[i], i, L, best, steps, off[i])
+            _scan_end(cur, w, ec[i], i, L, best, steps, off[i], i == n - 1, Yt.shape[1])
 
 
 @njit(cache=True)
@@ -285,17 +285,19 @@ def end_costs(band: Band, open_begin: bool, open_end: bool, uncovered_cost: floa
     ----------
     band : Band
     open_begin, open_end : bool
-        Whether the path may start (end) at any admissible cell.
+        Whether the path may start on row 0 or column 0 (end on row ``n - 1`` or column
+        ``m - 1``).
     uncovered_cost : float
         Penalty per body row left uncovered (units of the local cost), >= 0.
 
     Returns
     -------
     start, end : np.ndarray [shape=(n,), dtype=float64]
-        ``start[i] = uncovered_cost * i`` where a path may start in row ``i`` (open begin:
-        rows up to the first constraint's row), ``end[i] = uncovered_cost * (n - 1 - i)``
-        where it may end (open end: rows from the last constraint's row on); ``+inf``
-        elsewhere.  Fixed begin: ``start`` is all ``+inf`` (row 0 starts at ``(0, 0)``);
+        ``start[i] = uncovered_cost * i``: the cost of starting in row ``i`` (at column 0
+        for ``i > 0``, anywhere in row 0; open begin: rows up to the first constraint's
+        row), ``end[i] = uncovered_cost * (n - 1 - i)``: of ending in row ``i`` (at column
+        ``m - 1`` for ``i < n - 1``; open end: rows from the last constraint's row on);
+        ``+inf`` elsewhere.  Fixed begin: ``start`` is all ``+inf`` (row 0 starts at ``(0, 0)``);
         fixed end: ``end`` is all ``+inf`` (the path ends at ``(n - 1, m - 1)``).
 
     Raises
@@ -373,13 +375,13 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
     band : Band
         Admissible cells (see :func:`make_band`, :func:`splicer.band.full_band`).
     open_begin : bool, default False
-        Beyond the paper (ALGORITHM.md section 9): the path may start at any admissible cell
-        ``(i, j)`` (at or before the first constraint's row) instead of ``(0, 0)``.  Hands
-        frames before ``j`` are skipped for free; body rows before ``i`` are uncovered and
-        cost ``uncovered_cost`` each.
+        Beyond the paper (ALGORITHM.md section 9): the path may start at any admissible
+        ``(0, j)`` (hands frames before ``j`` are skipped, for free) or ``(i, 0)`` (at or
+        before the first constraint's row; body rows before ``i`` are uncovered and cost
+        ``uncovered_cost`` each) instead of ``(0, 0)``.
     open_end : bool, default False
-        Likewise the path may end at any admissible cell ``(i, j)`` at or after the last
-        constraint's row; body rows after ``i`` cost ``uncovered_cost`` each.
+        Likewise the path may end at any admissible ``(n - 1, j)`` or ``(i, m - 1)`` (at or
+        after the last constraint's row; body rows after ``i`` cost ``uncovered_cost`` each).
     uncovered_cost : float, default 0
         Penalty per uncovered body row, in local-cost units (>= 0); it keeps a shorter
         overlap from winning just for being short.  Unused with fixed ends.
@@ -427,14 +429,14 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
             # only the band part of each row is checked (padding is ignored)
             mask = np.arange(wmax)[None, :] <= (hi[i0:i1] - lo[i0:i1])[:, None]
             _check_costs(np.where(mask, block, 0.0), f"rows {i0}..{i1 - 1}")
-            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen)
+            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, m)
     else:
         c = np.asarray(cost)
         if c.shape != (n, m):
             raise ValueError(f"cost matrix must have shape (n, m) = ({n}, {m}), got {c.shape}")
         c = np.ascontiguousarray(c, dtype=np.float64)
         _check_costs(c, "matrix")
-        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen)
+        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, m)
     return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen)
 
 

@@ -22,10 +22,10 @@ def rng():
 def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0):
     """fwd + bwd - c on the full matrix, each filled by explicit loops (bwd directly, not by reversal).
 
-    fwd: start at (0, 0) (fixed) or anywhere in rows <= first pin at u * i (open; no step
-    (i-1, j) -> (i, j) out of a cell whose best is a start).  bwd: the mirror image: end at
-    (n-1, m-1) or anywhere in rows >= last pin at u * (n-1-i) (open; no step (i, j) -> (i+1, j)
-    into a cell whose best is an end)."""
+    fwd: start at (0, 0) (fixed) or (open) on row 0 or column 0 in rows <= first pin at u * i,
+    no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.  bwd: the mirror image: end
+    at (n-1, m-1) or on row n-1 or column m-1 in rows >= last pin at u * (n-1-i), no step
+    (i, m-1) -> (i+1, m-1) into a cell whose best is an end."""
     n, m = C.shape
     last_start = cons[0].x if cons else n - 1
     first_end = cons[-1].x if cons else 0
@@ -38,11 +38,12 @@ def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0):
             best = np.inf
             if i > 0 and j > 0:
                 best = min(best, f[i - 1, j - 1])
-            if i > 0 and not (ob and fst[i - 1, j]):
+            if i > 0 and not (ob and j == 0 and fst[i - 1, j]):
                 best = min(best, f[i - 1, j] + pen)
             if j > 0:
                 best = min(best, f[i, j - 1] + pen)
-            s = (u * i if i <= last_start else np.inf) if ob else (0.0 if (i, j) == (0, 0) else np.inf)
+            s = ((u * i if i <= last_start and (i == 0 or j == 0) else np.inf) if ob
+                 else (0.0 if (i, j) == (0, 0) else np.inf))
             if s < best:
                 best, fst[i, j] = s, True
             f[i, j] = C[i, j] + best
@@ -55,11 +56,12 @@ def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0):
             best = np.inf
             if i < n - 1 and j < m - 1:
                 best = min(best, b[i + 1, j + 1])
-            if i < n - 1 and not (oe and bst[i + 1, j]):
+            if i < n - 1 and not (oe and j == m - 1 and bst[i + 1, j]):
                 best = min(best, b[i + 1, j] + pen)
             if j < m - 1:
                 best = min(best, b[i, j + 1] + pen)
-            e = (u * (n - 1 - i) if i >= first_end else np.inf) if oe else (0.0 if (i, j) == (n - 1, m - 1) else np.inf)
+            e = ((u * (n - 1 - i) if i >= first_end and (i == n - 1 or j == m - 1) else np.inf) if oe
+                 else (0.0 if (i, j) == (n - 1, m - 1) else np.inf))
             if e < best:
                 best, bst[i, j] = e, True
             b[i, j] = C[i, j] + best
@@ -133,11 +135,11 @@ def test_hand_checked_spread():
 
 
 def test_uncovered_rows_have_zero_confidence():
-    C = np.array([[5., 5., 5., 5., 5.],
-                  [5., 5., 0., 5., 5.],
-                  [5., 5., 5., 0., 5.],
-                  [5., 5., 5., 5., 5.]]) + 0.5
-    band = full_band(4, 5)
+    C = np.array([[5., 5.],
+                  [0., 5.],
+                  [5., 0.],
+                  [5., 5.]]) + 0.5
+    band = full_band(4, 2)
     res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=2.0)
     assert res.covered == (1, 2)
     conf = row_confidence(C, band, res.path, fps=30.0, uncovered_cost=2.0)

@@ -27,11 +27,12 @@ def rng():
 def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0):
     """Full-matrix DTW with open ends, straight from the definition.
 
-    Start: (0, 0) at cost 0 (fixed), or any admissible cell (i, j) with i <= first pin row at
-    cost u * i (open).  End: (n-1, m-1) (fixed), or the admissible cell with i >= last pin row
-    minimising gamma + u * (n - 1 - i), first in row-major order on ties (open).  Open ends
-    leave body rows beyond the hands take uncovered rather than held: no step (i-1, j) -> (i, j)
-    out of a start cell, no end on a cell whose chosen step is (i-1, j) -> (i, j).
+    Start: (0, 0) at cost 0 (fixed), or (open) any admissible (0, j) at cost 0 or (i, 0) with
+    i <= first pin row at cost u * i.  End: (n-1, m-1) (fixed), or (open) the admissible (n-1, j)
+    or (i, m-1) with i >= last pin row minimising gamma + u * (n - 1 - i), first in row-major
+    order on ties.  Open ends leave body rows beyond the hands take uncovered rather than held:
+    no step (i-1, 0) -> (i, 0) out of a start cell, no end on column m-1 entered by a step
+    (i-1, m-1) -> (i, m-1).
     Ties between candidates: diagonal, up, left, start (a later one must be strictly smaller).
     ``pen`` is added to the up and left candidates.
     """
@@ -44,11 +45,11 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0):
         for j in range(m):
             if not mask[i, j]:
                 continue
-            up_ok = i > 0 and not (open_begin and step[i - 1, j] == 3)   # no hold out of a start
+            up_ok = i > 0 and not (open_begin and j == 0 and step[i - 1, j] == 3)   # no hold out of a start
             cands = [(g[i - 1, j - 1] if i > 0 and j > 0 else np.inf, 0),
                      (g[i - 1, j] + pen if up_ok else np.inf, 1),
                      (g[i, j - 1] + pen if j > 0 else np.inf, 2)]
-            if open_begin and i <= last_start:
+            if open_begin and i <= last_start and (i == 0 or j == 0):
                 cands.append((u * i, 3))
             elif not open_begin and i == 0 and j == 0:
                 cands.append((0.0, 3))
@@ -64,7 +65,9 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0):
         cost, end = np.inf, None
         for i in range(first_end, n):
             for j in range(m):
-                if step[i, j] == 1:                # no end on a hold
+                if not (i == n - 1 or j == m - 1):
+                    continue
+                if j == m - 1 and step[i, j] == 1:  # no end on a hold of the last hands frame
                     continue
                 v = g[i, j] + u * (n - 1 - i)
                 if v < cost:
@@ -151,21 +154,28 @@ def test_features_kernel_matches_reference(rng, ends):
 
 
 def test_hand_checked_open_ends():
-    # body row 0 and row 3 have no good match; the middle rows match hands columns 2..3 exactly
-    C = np.array([[5., 5., 5., 5., 5.],
-                  [5., 5., 0., 5., 5.],
-                  [5., 5., 5., 0., 5.],
-                  [5., 5., 5., 5., 5.]])
-    band = full_band(4, 5)
+    # hands frames 0, 1 show body rows 1, 2; body rows 0 and 3 have no hands material
+    C = np.array([[5., 5.],
+                  [0., 5.],
+                  [5., 0.],
+                  [5., 5.]])
+    band = full_band(4, 2)
     res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=1.0)
-    # rows 0 and 3 uncovered (1 + 1) beats covering them (5 each)
-    np.testing.assert_array_equal(res.path, [[1, 2], [2, 3]])
+    np.testing.assert_array_equal(res.path, [[1, 0], [2, 1]])     # start (i, 0), end (i, m-1)
     assert res.cost == 2.0 and res.covered == (1, 2)
+    # u = 6: still uncovered (12): covering row 0 would hold hands frame 0 from (0, 0) into
+    # row 1, covering row 3 would end on a hold of the last hands frame; neither is allowed
     res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=6.0)
-    assert res.covered == (0, 3) and res.cost == 10.0     # now covering is cheaper
+    assert res.covered == (1, 2) and res.cost == 12.0
     res = dtw(C, band, open_begin=True, open_end=False, uncovered_cost=1.0)
-    np.testing.assert_array_equal(res.path, [[1, 2], [2, 3], [3, 4]])
+    np.testing.assert_array_equal(res.path, [[1, 0], [2, 1], [3, 1]])   # a fixed end may hold
     assert res.cost == 1.0 + 0 + 0 + 5
+    # a longer hands take: the path starts on row 0 at the matching hands frame, skipping 0..2 for free
+    D = np.full((3, 7), 9.0)
+    D[0, 3] = D[1, 4] = D[2, 5] = 1.0
+    res = dtw(D, full_band(3, 7), open_begin=True, open_end=True, uncovered_cost=100.0)
+    np.testing.assert_array_equal(res.path, [[0, 3], [1, 4], [2, 5]])
+    assert res.cost == 3.0
 
 
 def test_fixed_ends_are_unchanged(rng):

@@ -12,15 +12,17 @@ from dataclasses import dataclass
 import numpy as np
 from .filters import gaussian_filter1d
 
-from .band import _trim
+from .band import _trim, full_band
 from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from .errors import BandError
 from .markers import Markers
 from .metrics import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
+from .openend import (MAX_COARSE_CELLS, UNCOVERED_QUANTILE, coarse_rate, d1_sample, offset_band,
+                      uncovered_penalty)
 from .timewarp import sample_linear
 
 __all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
-           "remap_constraints", "warp_markers"]
+           "remap_constraints", "warp_markers", "hold_ends"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,6 +38,18 @@ class PassResult:
     band : Band
         The admissible region, for plotting.
     name : str
+    local_cost : callable or None
+        ``(band, i0, i1) -> band rows of local costs``, for plots and :mod:`splicer.confidence`.
+    covered : tuple of int or None
+        ``(first, last)`` body frame the path covers (inclusive); the whole body with fixed
+        ends.  Frames outside have no hands material (open ends).
+    uncovered_cost : float
+        Penalty per uncovered body frame the pass used (0 with fixed ends), local-cost units.
+    ends : {"fixed", "open"}
+        ``"fixed"``: the path runs from the first to the last covered row with fixed ends
+        there (the whole body, or pass 2's ``covered`` span); ``"open"``: open-ended.
+    step_penalty : float
+        Penalty per non-diagonal step the pass used (0: the paper).
     """
 
     path: np.ndarray
@@ -43,6 +57,10 @@ class PassResult:
     band: Band
     name: str
     local_cost: object = None  # callable (band, i0, i1) -> band rows of local costs, for plots
+    covered: tuple | None = None
+    uncovered_cost: float = 0.0
+    ends: str = "fixed"
+    step_penalty: float = 0.0
 
 
 def resample_markers(markers: Markers, fps: float) -> Markers:
@@ -60,26 +78,34 @@ def resample_markers(markers: Markers, fps: float) -> Markers:
     return warp_markers(markers, np.arange(m) * ratio, fps=fps)
 
 
-def _run(cost, band: Band, progress=None) -> DTWResult:
-    """The DTW over ``band`` with a band-chunk cost; ``progress(fraction)`` after each chunk of rows."""
+def _run(cost, band: Band, progress=None, **ends) -> DTWResult:
+    """The DTW over ``band`` with a band-chunk cost; ``progress(fraction)`` after each chunk of rows.
+    ``ends``: :func:`splicer.dtw.dtw`'s ``open_begin``, ``open_end``, ``uncovered_cost``."""
     if progress is None:
-        return dtw(lambda i0, i1: cost(band, i0, i1), band)
+        return dtw(lambda i0, i1: cost(band, i0, i1), band, **ends)
 
     def chunk(i0, i1):
         out = cost(band, i0, i1)
         progress(i1 / band.n)
         return out
 
-    return dtw(chunk, band)
+    return dtw(chunk, band, **ends)
 
 
-def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: float, constraints=()) -> Band:
+def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: float, constraints=(), *,
+                open_begin: bool = False, open_end: bool = False) -> Band:
     """A band of width ``width`` (body frames) that follows a coarse path instead of the diagonal.
 
     Each coarse cell ``(I, J)`` stands for the fine cells around ``(I * factor, J * factor)``; the
     band is the union of those blocks along the coarse path, widened by the half-width
     ``Delta = W * sqrt(1 + s^2) / 2`` (``s = m / n``), clipped to every constraint's window and
     trimmed to cells that lie on a path.  O(n) memory.
+
+    With fixed ends the band reaches ``(0, 0)`` and ``(n - 1, m - 1)``.  With open ends
+    (a coarse path from an open-ended pass, which may start after coarse row 0 or end before
+    the last) it does not have to: coarse rows before the path's first cell take its first
+    column, rows after its last cell its last column, so the fine pass can still move the
+    start and end by a coarse frame or more, and leave the rest uncovered.
 
     Raises
     ------
@@ -88,10 +114,15 @@ def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: f
     """
     I, J = coarse_path[:, 0], coarse_path[:, 1]
     nc = int(I.max()) + 1
+    if open_begin or open_end:                        # the coarse path may stop short of the last row
+        nc = max(nc, int(np.rint((n - 1) / factor)) + 1)
     jmin = np.full(nc, np.iinfo(np.int64).max)
     jmax = np.full(nc, -1)
     np.minimum.at(jmin, I, J)
     np.maximum.at(jmax, I, J)
+    i0, i1 = int(I.min()), int(I.max())
+    jmin[:i0], jmax[:i0] = J[0], J[0]                 # rows the coarse path leaves uncovered
+    jmin[i1 + 1:], jmax[i1 + 1:] = J[-1], J[-1]
     ci = np.clip(np.rint(np.arange(n) / factor).astype(np.int64), 0, nc - 1)
     # neighbouring coarse rows too, so blocks of consecutive rows overlap
     lo_c = np.minimum(jmin[ci], jmin[np.maximum(ci - 1, 0)])
@@ -101,18 +132,32 @@ def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: f
     hi = np.ceil(hi_c * factor + factor + delta).astype(np.int64)
     lo = np.clip(lo, 0, m - 1)
     hi = np.clip(hi, 0, m - 1)
-    lo[0] = 0
-    hi[-1] = m - 1
+    if not open_begin:
+        lo[0] = 0
+    if not open_end:
+        hi[-1] = m - 1
     for c in constraints:
         lo[c.x] = max(lo[c.x], c.y - c.tolerance)
         hi[c.x] = min(hi[c.x], c.y + c.tolerance)
     lo, hi = _trim(lo, hi)
-    return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints))
+    return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints), open_begin=open_begin,
+                open_end=open_end)
+
+
+def _coarse_constraints(constraints, factor, nc, mc):
+    out = []
+    for c in constraints:
+        x, y = int(round(c.x / factor)), int(round(c.y / factor))
+        if 0 < x < nc - 1 and 0 < y < mc - 1 and (not out or (x > out[-1].x and y > out[-1].y)):
+            out.append(Constraint(x, y, int(np.ceil(c.tolerance / factor)) + 1))
+    return out
 
 
 def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = 0.025,
           dead_zone: float = 0.01, theta: str = "window", coarse_fps: float | None = None,
-          coarse_width: float | None = None, progress=None) -> PassResult:
+          coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
+          uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
+          max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -133,20 +178,56 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         diagonal, then run the full-rate pass in a band of ``width`` around that coarse path
         (:func:`guided_band`).  A performance that drifts far from uniform timing over many
         minutes stays inside the band.  None: the band follows the diagonal (the paper).
+        With ``ends="open"``: the rate of the locating pass (default 5 fps).
+    ends : {"fixed", "open"}
+        ``"fixed"`` (the paper): the path runs from ``(0, 0)`` to ``(n - 1, m - 1)``.
+        ``"open"`` (ALGORITHM.md section 9): the body's span may lie anywhere in the hands
+        take and either may cover only part of the other.  A coarse pass at ``coarse_fps``
+        (lowered so that the coarse matrix has at most ``max_coarse_cells`` cells), open at
+        both ends over the whole hands take (or, with ``offset_s``, over a band of
+        ``coarse_width`` body frames around that offset), locates the overlap; the full-rate
+        pass runs open-ended in a band of ``width`` around the located coarse path.  Body
+        frames outside ``result.covered`` have no hands material.
+    offset_s : float, optional
+        Open ends only: a starting guess (e.g. from timecode): body frame 0 shows the same
+        instant as hands time ``offset_s`` seconds (may be negative: the hands take starts
+        later).  The coarse pass then searches a band of ``coarse_width`` body frames
+        (default 30 s) around ``j = i + offset`` instead of the whole take.
+    uncovered_quantile : float
+        Open ends: the per-frame penalty for uncovered body frames is this quantile of D1
+        over a sample of all frame pairs (:func:`splicer.openend.uncovered_penalty`).
+    uncovered_cost : float, optional
+        Open ends: the penalty itself (D1 units per body frame), overriding the quantile.
+    max_coarse_cells : int
+        Open ends: cap on the coarse matrix (1 byte of DTW steps per cell).
+    step_penalty : float
+        Beyond the paper: D1 units added to every non-diagonal step, in every DTW of the pass
+        (:func:`splicer.dtw.dtw`); 0 is the paper's recurrence.
+
+    Returns
+    -------
+    PassResult
+        With ``covered``, the first and last body frame the path covers (the whole body with
+        fixed ends), and ``uncovered_cost``.
     """
+    if ends not in ("fixed", "open"):
+        raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
+    if ends == "open":
+        return _pass1_open(body, hands, width=width, constraints=constraints, smooth_s=smooth_s,
+                           dead_zone=dead_zone, theta=theta, coarse_fps=5.0 if coarse_fps is None else coarse_fps,
+                           coarse_width=coarse_width, progress=progress, offset_s=offset_s,
+                           uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
+                           max_coarse_cells=max_coarse_cells, step_penalty=step_penalty)
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
     n, m = body.n_frames, hands.n_frames
     if coarse_fps is not None and coarse_fps < body.fps:
         factor = body.fps / coarse_fps
         cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
-        ccons = []
-        for c in constraints:
-            x, y = int(round(c.x / factor)), int(round(c.y / factor))
-            if 0 < x < cb.n_frames - 1 and 0 < y < ch.n_frames - 1 and (not ccons or (x > ccons[-1].x and y > ccons[-1].y)):
-                ccons.append(Constraint(x, y, int(np.ceil(c.tolerance / factor)) + 1))
+        ccons = _coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)
         cw = (coarse_width if coarse_width is not None else width) / factor
-        coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta)
+        coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta,
+                       step_penalty=step_penalty)
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints)
         except BandError:
@@ -154,8 +235,48 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     else:
         band = make_band(n, m, width, constraints)
     d1 = d1_cost(fb, fh, theta=theta)
-    res = _run(d1, band, progress)
-    return PassResult(res.path, res.cost, band, "pass1", d1)
+    res = _run(d1, band, progress, step_penalty=step_penalty)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty)
+
+
+def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, coarse_fps, coarse_width, progress,
+                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty):
+    n, m = body.n_frames, hands.n_frames
+    cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
+    factor = body.fps / cfps
+    if factor > 1.0 + 1e-9:
+        cb, ch = resample_markers(body, cfps), resample_markers(hands, cfps)
+    else:
+        factor, cb, ch = 1.0, body, hands
+    nc, mc = cb.n_frames, ch.n_frames
+    ccons = _coarse_constraints(constraints, factor, nc, mc) if factor > 1.0 else list(constraints)
+    fcb = phase_features(cb, smooth_s=smooth_s, dead_zone=dead_zone)
+    fch = phase_features(ch, smooth_s=smooth_s, dead_zone=dead_zone)
+    d1c = d1_cost(fcb, fch, theta=theta)
+    u = uncovered_cost
+    if u is None:
+        u = uncovered_penalty(d1_sample(fcb, fch, theta=theta), uncovered_quantile)
+    if offset_s is None:
+        cband = full_band(nc, mc, ccons)
+    else:
+        cw = (coarse_width if coarse_width is not None else 30.0 * body.fps) / factor
+        cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
+    coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u,
+                 step_penalty=step_penalty)
+    if progress is not None:
+        progress(0.0)
+    if factor > 1.0:
+        try:
+            band = guided_band(coarse.path, factor, n, m, width, constraints, open_begin=True, open_end=True)
+        except BandError:  # the coarse path missed a constraint window: search the whole take at full rate
+            band = full_band(n, m, constraints)
+    else:
+        band = cband
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
+    d1 = d1_cost(fb, fh, theta=theta)
+    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty)
 
 
 def path_median(path: np.ndarray, n: int) -> np.ndarray:
@@ -164,13 +285,19 @@ def path_median(path: np.ndarray, n: int) -> np.ndarray:
     Returns
     -------
     np.ndarray [shape=(n,), dtype=float64]
-        Non-decreasing; halves where a frame matches an even number of frames.
+        Non-decreasing over the frames the path covers; halves where a frame matches an even
+        number of frames.  NaN for frames the path does not cover (open ends).
     """
     i, j = path[:, 0], path[:, 1]
+    rows = np.arange(n)
     # the frames matched to row r are contiguous along a monotone path
-    starts = np.searchsorted(i, np.arange(n), side="left")
-    ends = np.searchsorted(i, np.arange(n), side="right") - 1
-    return 0.5 * (j[starts + (ends - starts) // 2] + j[starts + (ends - starts + 1) // 2])
+    starts = np.searchsorted(i, rows, side="left")
+    ends = np.searchsorted(i, rows, side="right") - 1
+    on = ends >= starts
+    out = np.full(n, np.nan)
+    s, e = starts[on], ends[on]
+    out[on] = 0.5 * (j[s + (e - s) // 2] + j[s + (e - s + 1) // 2])
+    return out
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):
@@ -194,7 +321,7 @@ def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):
 
 def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
           diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = 0.025,
-          dead_zone: float = 0.01, theta: str = "window", progress=None) -> PassResult:
+          dead_zone: float = 0.01, theta: str = "window", progress=None, covered=None) -> PassResult:
     """Pass 2: banded DTW with the palm metric D2 between the body and the pass-1-warped hands.
 
     Parameters
@@ -218,6 +345,13 @@ def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
         D1's settings, as in :func:`pass1`.
     progress : callable, optional
         ``progress(fraction)`` as the rows are done.
+    covered : (int, int), optional
+        After an open-ended pass 1: the first and last body frame it covers.  Pass 2 then
+        aligns only those frames (fixed ends on that span; ``hands_warped`` must still have
+        one frame per body frame, any values outside the span, e.g. :func:`hold_ends`); the
+        result's band spans every body row (rows outside the span get the span's first or
+        last interval, ``open_begin``/``open_end`` set, for plots) and its path runs from
+        ``(first, first)`` to ``(last, last)``-ish.  Constraints outside the span are dropped.
     """
     fb: PalmFeatures = palm_features(body.points)
     fh: PalmFeatures = palm_features(hands_warped.points)
@@ -225,10 +359,52 @@ def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
     if d1_weight > 0:
         d1 = d1_cost(phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone),
                      phase_features(hands_warped, smooth_s=smooth_s, dead_zone=dead_zone), theta=theta)
-    band = make_band(body.n_frames, hands_warped.n_frames, width, constraints)
+    n = body.n_frames
     cost = _pass2_cost(d2_cost(fb, fh), d1, max(width, 1.0), diagonal_weight, d1_weight)
+    if covered is not None and tuple(covered) != (0, n - 1):
+        return _pass2_span(cost, n, hands_warped.n_frames, width, constraints, covered, progress)
+    band = make_band(body.n_frames, hands_warped.n_frames, width, constraints)
     res = _run(cost, band, progress)
-    return PassResult(res.path, res.cost, band, "pass2", cost)
+    return PassResult(res.path, res.cost, band, "pass2", cost, res.covered, 0.0)
+
+
+def _pass2_span(cost, n, m, width, constraints, covered, progress) -> PassResult:
+    """Pass 2 over body frames ``a..b`` only (fixed ends there), reported on the full body rows."""
+    a, b = int(covered[0]), int(covered[1])
+    if m != n:
+        raise ValueError(f"pass 2 over a covered span needs the warped hands at the body frames ({n}), got {m}")
+    if not 0 <= a <= b <= n - 1:
+        raise ValueError(f"covered span {covered} is outside the body frames 0..{n - 1}")
+    k = b - a + 1
+    sub_cons = [Constraint(c.x - a, c.y - a, c.tolerance) for c in constraints
+                if 0 < c.x - a < k - 1 and 0 < c.y - a < k - 1]
+    sub = make_band(k, k, width, sub_cons)
+    lo = np.concatenate([np.full(a, sub.lo[0] + a), sub.lo + a, np.full(n - 1 - b, sub.lo[-1] + a)])
+    hi = np.concatenate([np.full(a, sub.hi[0] + a), sub.hi + a, np.full(n - 1 - b, sub.hi[-1] + a)])
+    full = Band(n=n, m=m, width=width, lo=lo, hi=hi,
+                constraints=tuple(Constraint(c.x + a, c.y + a, c.tolerance) for c in sub_cons),
+                open_begin=True, open_end=True)
+
+    def chunk(i0, i1):
+        out = cost(full, i0 + a, i1 + a)       # rows a.. of the full band = the span's band, shifted
+        if progress is not None:
+            progress(i1 / k)
+        return out
+
+    res = dtw(chunk, sub)
+    return PassResult(res.path + a, res.cost, full, "pass2", cost, (a, b), 0.0, "fixed")
+
+
+def hold_ends(values: np.ndarray) -> np.ndarray:
+    """``values`` (n,) with NaN outside the covered span (:func:`path_median` after open ends)
+    replaced by the first / last finite value; a copy.  Raises ValueError when none is finite."""
+    v = np.array(values, dtype=np.float64)
+    ok = np.flatnonzero(np.isfinite(v))
+    if ok.size == 0:
+        raise ValueError("no covered frame")
+    v[:ok[0]] = v[ok[0]]
+    v[ok[-1] + 1:] = v[ok[-1]]
+    return v
 
 
 def warp_markers(markers: Markers, frames: np.ndarray, *, fps: float | None = None) -> Markers:

@@ -46,7 +46,7 @@ import numpy as np
 
 from .errors import BandError, ConstraintError
 
-__all__ = ["Constraint", "Band", "band_frames", "make_band"]
+__all__ = ["Constraint", "Band", "band_frames", "make_band", "full_band"]
 
 EPS = 1e-9
 
@@ -89,10 +89,18 @@ class Band:
         ``W``, the band's perpendicular width in frames of the first sequence.
     lo, hi : np.ndarray [shape=(n,), dtype=int64]
         First and last admissible column of each row (inclusive, 0-based).  Both are
-        non-decreasing, ``lo[0] == 0``, ``hi[-1] == m - 1`` and ``lo[i] <= hi[i-1] + 1``,
-        so a monotone path from ``(0, 0)`` to ``(n - 1, m - 1)`` exists.  Stored read-only.
+        non-decreasing and ``lo[i] <= hi[i-1] + 1`` (consecutive rows connect), and unless
+        the band is open, ``lo[0] == 0`` and ``hi[-1] == m - 1``, so a monotone path from
+        ``(0, 0)`` to ``(n - 1, m - 1)`` exists.  Stored read-only.
     constraints : tuple of Constraint
         The constraints the band was built for (0-based).
+    open_begin, open_end : bool, default False
+        Beyond the paper (ALGORITHM.md section 9): the band is meant for an open-ended
+        alignment whose path may start (end) at any admissible cell, so ``lo[0]`` need not be
+        0 (``hi[-1]`` need not be ``m - 1``).  Every row still has a non-empty, connected
+        interval: rows a path leaves uncovered are simply not visited.  A fixed-ends DTW
+        (:func:`splicer.dtw.dtw` with ``open_begin=False``) still needs ``lo[0] == 0``
+        (``open_end=False``: ``hi[-1] == m - 1``) and says so.
 
     Notes
     -----
@@ -105,6 +113,8 @@ class Band:
     lo: np.ndarray
     hi: np.ndarray
     constraints: tuple = ()
+    open_begin: bool = False
+    open_end: bool = False
 
     def __post_init__(self):
         n, m = int(self.n), int(self.m)
@@ -113,7 +123,7 @@ class Band:
         lo, hi = _readonly(self.lo), _readonly(self.hi)
         if lo.shape != (n,) or hi.shape != (n,):
             raise BandError(f"lo and hi must have shape ({n},), got {lo.shape} and {hi.shape}")
-        bad = _first_bad_row(lo, hi, m)
+        bad = _first_bad_row(lo, hi, m, bool(self.open_begin), bool(self.open_end))
         if bad is not None:
             raise BandError(f"invalid band at row {bad[0]}: {bad[1]}")
         object.__setattr__(self, "n", n)
@@ -122,6 +132,8 @@ class Band:
         object.__setattr__(self, "lo", lo)
         object.__setattr__(self, "hi", hi)
         object.__setattr__(self, "constraints", tuple(self.constraints))
+        object.__setattr__(self, "open_begin", bool(self.open_begin))
+        object.__setattr__(self, "open_end", bool(self.open_end))
 
     @property
     def n_cells(self) -> int:
@@ -139,15 +151,16 @@ class Band:
 
     def __repr__(self) -> str:
         return (f"Band(n={self.n}, m={self.m}, width={self.width:g}, cells={self.n_cells}, "
-                f"max_row_width={self.max_row_width}, constraints={len(self.constraints)})")
+                f"max_row_width={self.max_row_width}, constraints={len(self.constraints)}"
+                + (", open_begin" if self.open_begin else "") + (", open_end" if self.open_end else "") + ")")
 
 
-def _first_bad_row(lo, hi, m):
+def _first_bad_row(lo, hi, m, open_begin=False, open_end=False):
     """Return ``(row, reason)`` of the first violation of the band invariants, or None."""
     n = lo.shape[0]
-    if lo[0] != 0:
+    if lo[0] != 0 and not open_begin:
         return 0, f"lo[0] must be 0, got {lo[0]}"
-    if hi[n - 1] != m - 1:
+    if hi[n - 1] != m - 1 and not open_end:
         return n - 1, f"hi[{n - 1}] must be m - 1 = {m - 1}, got {hi[n - 1]}"
     for name, arr in (("lo < 0", lo < 0), ("hi > m - 1", hi > m - 1), ("lo > hi", lo > hi)):
         if arr.any():
@@ -396,3 +409,37 @@ def make_band(n: int, m: int, width: float, constraints=()) -> Band:
         raise err
     lo, hi = _trim(*_raw_intervals(n, m, width, cons))
     return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=cons)
+
+
+def full_band(n: int, m: int, constraints=(), *, open_begin: bool = True, open_end: bool = True) -> Band:
+    """Every cell admissible, except where a constraint narrows its row (beyond the paper).
+
+    For open-ended alignments of short or coarse sequences, where the offset is unknown.
+
+    Parameters
+    ----------
+    n, m : int
+        Lengths of the first (body) and second (hands) sequence, frames (>= 1).
+    constraints : sequence of Constraint or (x, y[, T]) tuples
+        As :func:`make_band`: row ``x`` is clipped to ``[y - T, y + T]``.
+    open_begin, open_end : bool
+        Recorded on the band (see :class:`Band`).
+
+    Returns
+    -------
+    Band
+        ``width`` is ``inf``; O(n) memory, but the DTW over it stores ``n * m`` bytes.
+    """
+    for name, v in (("n", n), ("m", m)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise BandError(f"{name} must be an integer >= 1, got {v!r}")
+    n, m = int(n), int(m)
+    cons = _as_constraints(constraints, n, m)
+    lo = np.zeros(n, np.int64)
+    hi = np.full(n, m - 1, np.int64)
+    for c in cons:
+        lo[c.x] = max(lo[c.x], c.y - c.tolerance, 0)
+        hi[c.x] = min(hi[c.x], c.y + c.tolerance, m - 1)
+    lo, hi = _trim(lo, hi)
+    return Band(n=n, m=m, width=math.inf, lo=lo, hi=hi, constraints=cons, open_begin=open_begin,
+                open_end=open_end)

@@ -1,0 +1,371 @@
+"""Per-frame confidence of an alignment from its cost landscape (ALGORITHM.md section 9).
+
+Forward and backward accumulated costs over the band give, for every admissible cell, the
+cost of the best path forced through it::
+
+    through[i, j] = fwd[i, j] + bwd[i, j] - c[i, j]
+
+``fwd`` is the engine's recurrence (:mod:`splicer.dtw`, with the same start costs and the
+same open-begin rule); ``bwd`` is that recurrence run on the reversed band and costs (the
+end costs become start costs).  ``min_j through[i, j]`` is the optimal cost for every row the
+optimal path covers.  The *excess* ``through[i, j] - optimum`` says how much worse the
+alignment becomes when row ``i`` is forced to hands frame ``j``: it rises fast away from the
+chosen cell where the row is well determined, and stays flat where it is not (a still arm,
+a pause, a repeated gesture).
+
+Per body row ``i`` (covered by the path), with ``tau`` the excess threshold:
+
+* ``near = {j : excess[i, j] <= tau}`` (always contains the path's cells of row ``i``);
+* ``spread_frames[i] = max(near) - min(near)`` (hands frames, 0 when only one cell);
+* ``est_error_s[i] = max_{j in near} |j - jc[i]| / fps``, ``jc`` the median of the path's
+  columns in that row: how far an alternative alignment almost as good as the chosen one
+  puts this frame;
+* ``confidence[i] = 1 / (1 + (est_error_s[i] / error_scale_s) ** 2)``: 1 for an exactly
+  determined frame, 0.5 at ``error_scale_s`` (default 0.1 s, the finger-to-body
+  desynchronisation viewers notice), towards 0 beyond.
+
+Rows the path leaves uncovered get ``spread_frames = est_error_s = NaN`` and
+``confidence = 0``.
+
+``tau = threshold * median(local cost along the path)``: an alternative is "almost as good"
+when it costs at most ``threshold`` typical path cells more in total.
+
+Memory: local costs, forward and backward costs as float32, 12 bytes per band cell (the
+forward and backward values are stored relative to their row minimum, so float32 keeps
+their differences to about 1e-3 of a cost unit), plus O(band) float64 rows.  Time
+O(n * band), about two DTW passes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .align import path_median
+from .dtw import CHUNK_CELLS, Band, end_costs
+
+__all__ = ["Confidence", "row_confidence", "pass_confidence", "through_costs", "CONFIDENCE_THRESHOLD"]
+
+#: Default excess threshold, in units of the median local cost along the path.
+CONFIDENCE_THRESHOLD = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class Confidence:
+    """Per-body-frame reliability of an alignment.
+
+    Attributes
+    ----------
+    spread_frames : np.ndarray [shape=(n,), dtype=float64]
+        Range of hands frames (at the alignment's rate) whose forced-path cost is within
+        ``threshold`` of the optimum; NaN where uncovered.
+    est_error_s : np.ndarray [shape=(n,), dtype=float64]
+        Estimated alignment error, seconds; NaN where uncovered.
+    confidence : np.ndarray [shape=(n,), dtype=float64]
+        In [0, 1]; 0 where uncovered, 0.5 at ``error_scale_s``.
+    threshold : float
+        The excess threshold ``tau`` used, local-cost units.
+    error_scale_s : float
+        Seconds of estimated error at which confidence is 0.5.
+    """
+
+    spread_frames: np.ndarray
+    est_error_s: np.ndarray
+    confidence: np.ndarray
+    threshold: float
+    error_scale_s: float
+
+    def low(self, max_error_s: float | None = None) -> np.ndarray:
+        """Boolean mask (n,): covered frames whose estimated error exceeds ``max_error_s``
+        (default ``error_scale_s``), i.e. confidence below 0.5."""
+        lim = self.error_scale_s if max_error_s is None else max_error_s
+        e = self.est_error_s
+        return np.isfinite(e) & (e > lim)
+
+
+# ---------------------------------------------------------------- kernels (private, dumb)
+
+@njit(cache=True)
+def _accumulate(c, lo, hi, off, sc, ob, pen, out, rowmin):
+    # Forward accumulated cost over the band (the engine's recurrence and ties do not matter
+    # here, only values).  c, out: flat float32 band cells (row i at off[i] .. off[i+1]-1).
+    # sc[i]: start cost of row i, anywhere in row 0 or at column 0 of row i (+inf none; fixed
+    # begin: all +inf and (0, lo[0]) starts at 0).
+    # ob: open begin, no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.
+    # pen: added to the (i-1, j) and (i, j-1) steps.
+    # out = gamma - rowmin[i] (float32); rowmin[i] = min of row i's finite gamma (+inf if none).
+    n = lo.shape[0]
+    wmax = 0
+    for i in range(n):
+        wmax = max(wmax, hi[i] - lo[i] + 1)
+    prev = np.full(wmax, np.inf)
+    cur = np.full(wmax, np.inf)
+    pst = np.zeros(wmax, np.bool_)
+    cst = np.zeros(wmax, np.bool_)
+    for i in range(n):
+        L = lo[i]
+        w = hi[i] - L + 1
+        for k in range(w):
+            j = L + k
+            best = np.inf
+            isst = False
+            if i > 0:
+                plo = lo[i - 1]
+                phi = hi[i - 1]
+                if plo <= j - 1 <= phi:
+                    best = prev[j - 1 - plo]
+                if plo <= j <= phi and not (ob and j == 0 and pst[j - plo]):
+                    if prev[j - plo] + pen < best:
+                        best = prev[j - plo] + pen
+            if k > 0 and cur[k - 1] + pen < best:
+                best = cur[k - 1] + pen
+            if (ob and (i == 0 or j == 0)) or (i == 0 and k == 0):
+                s = sc[i] if ob else 0.0
+                if s < best:
+                    best = s
+                    isst = True
+            cur[k] = c[off[i] + k] + best
+            cst[k] = isst
+        m = np.inf
+        for k in range(w):
+            if cur[k] < m:
+                m = cur[k]
+        rowmin[i] = m
+        for k in range(w):
+            out[off[i] + k] = cur[k] - m if m < np.inf else np.inf
+        for k in range(w):
+            prev[k] = cur[k]
+            pst[k] = cst[k]
+            cur[k] = np.inf
+            cst[k] = False
+
+
+@njit(cache=True)
+def _row_stats(c, fwd, fmin, bwd, bmin, lo, hi, off, roff, optimum, tau, jc, spread, err):
+    # Per covered row i (jc[i] finite): excess = fwd + bwd - c - optimum over the row's cells;
+    # spread = max - min of columns with excess <= tau, err = max |j - jc| over them.
+    n = lo.shape[0]
+    for i in range(n):
+        if not np.isfinite(jc[i]):
+            continue
+        L = lo[i]
+        w = hi[i] - L + 1
+        ri = n - 1 - i
+        jmin = -1
+        jmax = -1
+        e = 0.0
+        for k in range(w):
+            b = bwd[roff[ri] + (w - 1 - k)]
+            f = fwd[off[i] + k]
+            if not (np.isfinite(b) and np.isfinite(f)):
+                continue
+            x = (np.float64(f) + fmin[i]) + (np.float64(b) + bmin[ri]) - np.float64(c[off[i] + k]) - optimum
+            if x <= tau:
+                j = L + k
+                if jmin < 0:
+                    jmin = j
+                jmax = j
+                d = abs(j - jc[i])
+                if d > e:
+                    e = d
+        if jmin >= 0:
+            spread[i] = jmax - jmin
+            err[i] = e
+        else:                      # pragma: no cover - the path's own cells have excess ~0
+            spread[i] = 0.0
+            err[i] = 0.0
+
+
+# ---------------------------------------------------------------- public
+
+def _gather(cost, band: Band, off: np.ndarray) -> np.ndarray:
+    """Local costs of every band cell, flat float32 (row i at off[i] .. off[i+1]-1)."""
+    n = band.n
+    widths = band.hi - band.lo + 1
+    flat = np.empty(int(off[-1]), dtype=np.float32)
+    if callable(cost):
+        wmax = band.max_row_width
+        chunk = max(1, min(n, CHUNK_CELLS // wmax))
+        for i0 in range(0, n, chunk):
+            i1 = min(n, i0 + chunk)
+            block = np.asarray(cost(i0, i1))
+            if block.ndim != 2 or block.shape[0] != i1 - i0 or block.shape[1] < wmax:
+                raise ValueError(f"cost({i0}, {i1}) must return shape ({i1 - i0}, >= {wmax}), got {block.shape}")
+            mask = np.arange(block.shape[1])[None, :] < widths[i0:i1, None]
+            flat[off[i0]:off[i1]] = block[mask]
+    else:
+        c = np.asarray(cost, dtype=np.float64)
+        if c.shape != (band.n, band.m):
+            raise ValueError(f"cost matrix must have shape (n, m) = ({band.n}, {band.m}), got {c.shape}")
+        for i in range(n):
+            flat[off[i]:off[i + 1]] = c[i, band.lo[i]:band.hi[i] + 1]
+    if np.isnan(flat).any() or np.isneginf(flat).any():
+        raise ValueError("local costs contain NaN or -inf")
+    return flat
+
+
+def _reverse_band(band: Band):
+    lo = (band.m - 1 - band.hi)[::-1].copy()
+    hi = (band.m - 1 - band.lo)[::-1].copy()
+    return lo, hi
+
+
+def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end: bool | None = None,
+                  uncovered_cost: float = 0.0, step_penalty: float = 0.0):
+    """Forward and backward accumulated costs over the band (see module docstring).
+
+    Parameters
+    ----------
+    cost : np.ndarray [shape=(n, m)] or callable
+        As :func:`splicer.dtw.dtw`.
+    band : Band
+    open_begin, open_end : bool, optional
+        End conditions (default: the band's ``open_begin`` / ``open_end``).
+    uncovered_cost, step_penalty : float
+        As in :func:`splicer.dtw.dtw`.
+
+    Returns
+    -------
+    through : callable ``(i) -> (columns, values)``
+        The forced-path cost of each admissible cell of row ``i`` (float64, ``+inf`` where no
+        path passes).  For tests and plots; :func:`row_confidence` does not build it.
+    parts : tuple
+        ``(c, fwd, fmin, bwd, bmin, off, roff)``: flat float32 local, forward (relative to
+        ``fmin``) and reversed backward (relative to ``bmin``) costs and the row offsets.
+    """
+    ob = band.open_begin if open_begin is None else bool(open_begin)
+    oe = band.open_end if open_end is None else bool(open_end)
+    sc, ec = end_costs(band, ob, oe, uncovered_cost)
+    pen = float(step_penalty)
+    if not (pen >= 0 and np.isfinite(pen)):
+        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
+    n = band.n
+    widths = band.hi - band.lo + 1
+    off = np.zeros(n + 1, np.int64)
+    np.cumsum(widths, out=off[1:])
+    c = _gather(cost, band, off)
+    lo = np.ascontiguousarray(band.lo, np.int64)
+    hi = np.ascontiguousarray(band.hi, np.int64)
+    fwd = np.empty_like(c)
+    fmin = np.empty(n)
+    _accumulate(c, lo, hi, off, sc, ob, pen, fwd, fmin)
+    rlo, rhi = _reverse_band(band)
+    roff = np.zeros(n + 1, np.int64)
+    np.cumsum((rhi - rlo + 1), out=roff[1:])
+    rc = np.empty_like(c)
+    for i in range(n):                    # row n-1-i reversed in column order
+        rc[roff[n - 1 - i]:roff[n - i]] = c[off[i]:off[i + 1]][::-1]
+    bwd = np.empty_like(c)
+    bmin = np.empty(n)
+    _accumulate(rc, rlo, rhi, roff, ec[::-1].copy(), oe, pen, bwd, bmin)
+
+    def through(i):
+        ri = n - 1 - i
+        f = fwd[off[i]:off[i + 1]].astype(np.float64) + fmin[i]
+        b = bwd[roff[ri]:roff[ri + 1]][::-1].astype(np.float64) + bmin[ri]
+        return np.arange(band.lo[i], band.hi[i] + 1), f + b - c[off[i]:off[i + 1]].astype(np.float64)
+
+    return through, (c, fwd, fmin, bwd, bmin, off, roff)
+
+
+def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin: bool | None = None,
+                   open_end: bool | None = None, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
+                   threshold: float = CONFIDENCE_THRESHOLD, error_scale_s: float = 0.1) -> Confidence:
+    """Per-body-frame spread, estimated error and confidence of an alignment.
+
+    Parameters
+    ----------
+    cost : np.ndarray [shape=(n, m)] or callable
+        The local costs the path was computed on, as :func:`splicer.dtw.dtw` takes them.
+    band : Band
+        The band the path was computed in.
+    path : np.ndarray [shape=(K, 2), dtype=int64]
+        The optimal path (e.g. :attr:`splicer.dtw.DTWResult.path`).
+    fps : float
+        Frame rate of the columns (hands frames at the alignment's rate), frames per second.
+    open_begin, open_end : bool, optional
+        End conditions of the alignment (default: the band's flags).
+    uncovered_cost, step_penalty : float
+        Penalties the alignment used (:func:`splicer.dtw.dtw`).
+    threshold : float
+        Excess threshold in units of the median local cost along the path (> 0).
+    error_scale_s : float
+        Estimated error (seconds) at which confidence is 0.5 (> 0).
+
+    Returns
+    -------
+    Confidence
+        Arrays of shape (n,).
+
+    Notes
+    -----
+    12 bytes per band cell (float32 local, forward and backward costs) plus O(n) floats;
+    O(n * band) time.
+    """
+    if not (fps > 0 and np.isfinite(fps)):
+        raise ValueError(f"fps must be positive and finite, got {fps!r}")
+    if not (threshold > 0 and np.isfinite(threshold)):
+        raise ValueError(f"threshold must be positive and finite, got {threshold!r}")
+    if not (error_scale_s > 0 and np.isfinite(error_scale_s)):
+        raise ValueError(f"error_scale_s must be positive and finite, got {error_scale_s!r}")
+    path = np.asarray(path, dtype=np.int64)
+    if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] < 1:
+        raise ValueError(f"path must have shape (K, 2), got {path.shape}")
+    n = band.n
+    _, (c, fwd, fmin, bwd, bmin, off, roff) = through_costs(cost, band, open_begin=open_begin, open_end=open_end,
+                                                            uncovered_cost=uncovered_cost, step_penalty=step_penalty)
+    # the path's own cost: local costs along it plus its uncovered rows
+    idx = off[path[:, 0]] + path[:, 1] - band.lo[path[:, 0]]
+    local = c[idx].astype(np.float64)
+    covered = (int(path[0, 0]), int(path[-1, 0]))
+    d = np.diff(path, axis=0)
+    bends = int(np.count_nonzero((d[:, 0] == 0) | (d[:, 1] == 0)))
+    optimum = (float(local.sum()) + float(uncovered_cost) * (covered[0] + (n - 1 - covered[1]))
+               + float(step_penalty) * bends)
+    tau = float(threshold) * max(float(np.median(local)), 1e-12)
+    jc = path_median(path, n)
+    spread = np.full(n, np.nan)
+    err = np.full(n, np.nan)
+    _row_stats(c, fwd, fmin, bwd, bmin, np.ascontiguousarray(band.lo, np.int64),
+               np.ascontiguousarray(band.hi, np.int64), off, roff, optimum, tau, jc, spread, err)
+    est = err / float(fps)
+    conf = np.where(np.isfinite(est), 1.0 / (1.0 + (np.nan_to_num(est) / error_scale_s) ** 2), 0.0)
+    return Confidence(spread_frames=spread, est_error_s=est, confidence=conf, threshold=tau,
+                      error_scale_s=float(error_scale_s))
+
+
+def pass_confidence(result, fps: float, **kwargs) -> Confidence:
+    """:func:`row_confidence` of a :class:`splicer.align.PassResult` (its band, path, costs, ends).
+
+    ``fps``: the rate of the pass's columns (the body rate for pass 1 and 2).  Keyword
+    arguments go to :func:`row_confidence` (``threshold``, ``error_scale_s``).  A pass with
+    fixed ends over a covered span (pass 2 after an open-ended pass 1) is measured on that
+    span; the frames outside get confidence 0 and NaN errors.
+    """
+    if result.local_cost is None:
+        raise ValueError(f"{result.name} has no local cost to measure confidence on")
+    band = result.band
+    n = band.n
+    cov = getattr(result, "covered", None) or (0, n - 1)
+    if getattr(result, "ends", "fixed") == "open" or tuple(cov) == (0, n - 1):
+        return row_confidence(lambda i0, i1: result.local_cost(band, i0, i1), band, result.path, fps,
+                              uncovered_cost=getattr(result, "uncovered_cost", 0.0),
+                              step_penalty=getattr(result, "step_penalty", 0.0), **kwargs)
+    a, b = int(cov[0]), int(cov[1])
+    # the span's own fixed-ends problem: rows a..b, columns shifted by the path's first column
+    c0 = int(result.path[0, 1])
+    sub = Band(n=b - a + 1, m=int(result.path[-1, 1]) - c0 + 1, width=band.width,
+               lo=band.lo[a:b + 1] - c0, hi=band.hi[a:b + 1] - c0)
+    conf = row_confidence(lambda i0, i1: result.local_cost(band, i0 + a, i1 + a), sub,
+                          result.path - np.array([a, c0]), fps, step_penalty=getattr(result, "step_penalty", 0.0),
+                          **kwargs)
+    def put(x, fill):
+        out = np.full(n, fill)
+        out[a:b + 1] = x
+        return out
+
+    return Confidence(spread_frames=put(conf.spread_frames, np.nan), est_error_s=put(conf.est_error_s, np.nan),
+                      confidence=put(conf.confidence, 0.0), threshold=conf.threshold,
+                      error_scale_s=conf.error_scale_s)

@@ -1,0 +1,212 @@
+"""Confidence from the cost landscape (splicer.confidence): forward + backward forced-path costs
+against a plain-Python full-matrix reference, against pinned DTW runs, and hand-checked spreads."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from splicer.band import full_band, make_band
+from splicer.confidence import Confidence, pass_confidence, row_confidence, through_costs
+from splicer.dtw import dtw
+
+from test_dtw import as_callable, random_constraints
+from test_openend import band_mask, marker_like, sample, smooth_warp, sqdist
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(4242)
+
+
+def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0):
+    """fwd + bwd - c on the full matrix, each filled by explicit loops (bwd directly, not by reversal).
+
+    fwd: start at (0, 0) (fixed) or (open) on row 0 or column 0 in rows <= first pin at u * i,
+    no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.  bwd: the mirror image: end
+    at (n-1, m-1) or on row n-1 or column m-1 in rows >= last pin at u * (n-1-i), no step
+    (i, m-1) -> (i+1, m-1) into a cell whose best is an end."""
+    n, m = C.shape
+    last_start = cons[0].x if cons else n - 1
+    first_end = cons[-1].x if cons else 0
+    f = np.full((n, m), np.inf)
+    fst = np.zeros((n, m), bool)
+    for i in range(n):
+        for j in range(m):
+            if not mask[i, j]:
+                continue
+            best = np.inf
+            if i > 0 and j > 0:
+                best = min(best, f[i - 1, j - 1])
+            if i > 0 and not (ob and j == 0 and fst[i - 1, j]):
+                best = min(best, f[i - 1, j] + pen)
+            if j > 0:
+                best = min(best, f[i, j - 1] + pen)
+            s = ((u * i if i <= last_start and (i == 0 or j == 0) else np.inf) if ob
+                 else (0.0 if (i, j) == (0, 0) else np.inf))
+            if s < best:
+                best, fst[i, j] = s, True
+            f[i, j] = C[i, j] + best
+    b = np.full((n, m), np.inf)
+    bst = np.zeros((n, m), bool)
+    for i in range(n - 1, -1, -1):
+        for j in range(m - 1, -1, -1):
+            if not mask[i, j]:
+                continue
+            best = np.inf
+            if i < n - 1 and j < m - 1:
+                best = min(best, b[i + 1, j + 1])
+            if i < n - 1 and not (oe and j == m - 1 and bst[i + 1, j]):
+                best = min(best, b[i + 1, j] + pen)
+            if j < m - 1:
+                best = min(best, b[i, j + 1] + pen)
+            e = ((u * (n - 1 - i) if i >= first_end and (i == n - 1 or j == m - 1) else np.inf) if oe
+                 else (0.0 if (i, j) == (n - 1, m - 1) else np.inf))
+            if e < best:
+                best, bst[i, j] = e, True
+            b[i, j] = C[i, j] + best
+    with np.errstate(invalid="ignore"):
+        return np.where(mask, f + b - C, np.inf)
+
+
+@pytest.mark.parametrize("ends", [(False, False), (True, False), (False, True), (True, True)])
+@pytest.mark.parametrize("n,m", [(1, 6), (6, 1), (7, 9), (15, 11), (20, 26)])
+def test_through_costs_match_reference(rng, ends, n, m):
+    ob, oe = ends
+    for trial in range(4):
+        C = rng.random((n, m)) * 3
+        u = float(rng.choice([0.0, 0.5, 2.0]))
+        pen = float(rng.choice([0.0, 0.3]))
+        cons = random_constraints(rng, n, m, int(rng.integers(0, 3)), int(rng.integers(0, 2)))
+        try:
+            band = full_band(n, m, cons, open_begin=ob, open_end=oe) if trial % 2 else make_band(n, m, 6.0, cons)
+        except Exception:
+            continue
+        ref = ref_through(C, band_mask(band), ob, oe, u, band.constraints, pen)
+        for cost in (C, as_callable(C, band)):
+            through, _ = through_costs(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen)
+            for i in range(n):
+                cols, vals = through(i)
+                np.testing.assert_allclose(vals, ref[i, cols], rtol=1e-5, atol=1e-4)
+
+
+def test_fixed_through_cost_is_best_prefix_plus_best_suffix(rng):
+    """Fixed ends: the best path through (i, j) = best path (0, 0)..(i, j) + best (i, j)..(n-1, m-1)."""
+    n, m = 14, 17
+    C = rng.random((n, m))
+    band = make_band(n, m, 1e6)
+    through, _ = through_costs(C, band)
+    for i in range(n):
+        cols, vals = through(i)
+        for j, v in zip(cols, vals):
+            head = dtw(C[:i + 1, :j + 1], make_band(i + 1, j + 1, 1e6)).cost
+            tail = dtw(C[i:, j:], make_band(n - i, m - j, 1e6)).cost
+            assert v == pytest.approx(head + tail - C[i, j], rel=1e-5)
+
+
+@pytest.mark.parametrize("ends", [(False, False), (True, True)])
+def test_row_minimum_is_the_optimum_on_covered_rows(rng, ends):
+    n, m = 40, 55
+    C = rng.random((n, m))
+    band = full_band(n, m, open_begin=ends[0], open_end=ends[1]) if ends[0] else make_band(n, m, 30.0)
+    res = dtw(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3, step_penalty=0.1)
+    through, _ = through_costs(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3, step_penalty=0.1)
+    for i in range(res.covered[0], res.covered[1] + 1):
+        _, vals = through(i)
+        assert vals.min() == pytest.approx(res.cost, rel=1e-5)
+
+
+def test_hand_checked_spread():
+    # optimum (0,0) (1,1) (2,2) costs 3; forcing row 1 to column 2 costs 4 (excess 1), column 0
+    # costs 9; rows 0 and 2 have no alternative within the threshold.
+    C = np.array([[1., 6., 6.],
+                  [6., 1., 1.],
+                  [6., 6., 1.]])
+    band = make_band(3, 3, 1e6)
+    path = dtw(C, band).path
+    conf = row_confidence(C, band, path, fps=10.0, threshold=1.0)   # tau = 1 x median path cost = 1
+    assert isinstance(conf, Confidence) and conf.threshold == 1.0
+    np.testing.assert_array_equal(conf.spread_frames, [0, 1, 0])
+    np.testing.assert_allclose(conf.est_error_s, [0, 0.1, 0])
+    np.testing.assert_allclose(conf.confidence, [1, 0.5, 1])
+    tight = row_confidence(C, band, path, fps=10.0, threshold=0.5)
+    np.testing.assert_array_equal(tight.spread_frames, [0, 0, 0])
+    assert conf.low().tolist() == [False, False, False] and conf.low(0.05).tolist() == [False, True, False]
+
+
+def test_uncovered_rows_have_zero_confidence():
+    C = np.array([[5., 5.],
+                  [0., 5.],
+                  [5., 0.],
+                  [5., 5.]]) + 0.5
+    band = full_band(4, 2)
+    res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=2.0)
+    assert res.covered == (1, 2)
+    conf = row_confidence(C, band, res.path, fps=30.0, uncovered_cost=2.0)
+    assert np.isnan(conf.est_error_s[[0, 3]]).all() and np.isnan(conf.spread_frames[[0, 3]]).all()
+    np.testing.assert_array_equal(conf.confidence[[0, 3]], [0, 0])
+    assert (conf.confidence[1:3] == 1).all()
+
+
+def test_a_hold_is_less_certain_than_motion(rng):
+    """Body rows inside a 1 s hold (no signal) get a large spread; moving rows a small one."""
+    fps = 30.0
+    n = 240
+    body = marker_like(rng, n)
+    body[100:130] = body[100]                       # the arm holds still for 1 s
+    m = 260
+    warp = smooth_warp(rng, m, n)
+    hands = sample(body, warp) + rng.normal(scale=0.05, size=(m, body.shape[1]))
+    C = sqdist(body, hands)
+    band = make_band(n, m, 60.0)
+    res = dtw(C, band)
+    conf = row_confidence(C, band, res.path, fps, threshold=5.0)
+    hold = conf.est_error_s[105:125]
+    moving = np.r_[conf.est_error_s[20:90], conf.est_error_s[140:220]]
+    assert np.median(hold) > 0.3 and np.median(moving) <= 1 / fps
+    assert conf.confidence[105:125].max() < 0.5 < conf.confidence[20:90].min()
+
+
+def test_pass_confidence_uses_the_pass(rng):
+    from splicer.align import PassResult
+    C = rng.random((12, 15))
+    band = make_band(12, 15, 8.0)
+    res = dtw(C, band)
+    pr = PassResult(res.path, res.cost, band, "pass1", as_callable_band(C), res.covered, 0.0)
+    a = pass_confidence(pr, 30.0)
+    b = row_confidence(C, band, res.path, 30.0)
+    np.testing.assert_array_equal(a.est_error_s, b.est_error_s)
+    with pytest.raises(ValueError, match="fps"):
+        row_confidence(C, band, res.path, 0.0)
+
+
+def as_callable_band(C):
+    def cost(band, i0, i1):
+        return as_callable(C, band)(i0, i1)
+    return cost
+
+
+def test_pass2_over_a_covered_span_and_its_confidence(rng):
+    """Pass 2 after open ends: aligned on the covered span only, reported on every body row."""
+    from splicer.align import hold_ends, pass2, warp_markers
+    from splicer.markers import Markers
+    n = 150
+    pts = np.cumsum(rng.normal(size=(n, 4, 3)), axis=0)
+    body = Markers(pts, np.zeros((n, 3)), np.zeros(n), 1, 30.0, "right")
+    per_frame = np.full(n, np.nan)
+    per_frame[20:130] = np.arange(20, 130) + 0.3          # pass 1 covered body frames 20..129
+    hw = warp_markers(body, hold_ends(per_frame))
+    assert hold_ends(per_frame)[0] == 20.3 and hold_ends(per_frame)[-1] == 129.3
+    res = pass2(body, hw, width=10.0, covered=(20, 129))
+    assert res.covered == (20, 129) and res.band.n == n and res.ends == "fixed"
+    assert tuple(res.path[0]) == (20, 20) and tuple(res.path[-1]) == (129, 129)
+    for i, j in res.path:
+        assert res.band.contains(i, j)
+    conf = pass_confidence(res, 30.0)
+    assert conf.confidence.shape == (n,)
+    assert (conf.confidence[:20] == 0).all() and (conf.confidence[130:] == 0).all()
+    assert np.isnan(conf.est_error_s[:20]).all() and np.isfinite(conf.est_error_s[20:130]).all()
+    full = pass2(body, hw, width=10.0)
+    assert full.covered == (0, n - 1)
+    with pytest.raises(ValueError, match="no covered frame"):
+        hold_ends(np.full(3, np.nan))

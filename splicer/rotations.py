@@ -132,6 +132,8 @@ def quat_from_matrix(m: np.ndarray) -> np.ndarray:
     lead = m.shape[:-2]
     if int(np.prod(lead)) == 0:
         return np.zeros(lead + (4,))
+    if not np.all(np.isfinite(m)):
+        raise ValueError("quat_from_matrix: the matrices contain NaN or infinity (a degenerate frame upstream)")
     q = Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat(scalar_first=True)
     return q.reshape(lead + (4,))
 

@@ -22,6 +22,7 @@ from .bvh import read_bvh
 from .constraints import SpliceConfig, frame_number, read_config
 from .dtw import Constraint, band_frames
 from .errors import ConstraintError, SplicerError, SplicerWarning
+from .handgeom import graft_scale  # b-handgeom
 from .markers import Markers, arm_markers
 from .merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
 from .model import Motion
@@ -148,17 +149,6 @@ def _dtw_constraints(cons: list[dict], n: int, m: int, ratio: float) -> list[Con
             continue
         out.append(Constraint(x, min(max(y, 1), m - 2), t))
     return out
-
-
-def _hand_scale(body_sk, barm, hands_sk, harm) -> float | None:
-    from .kinematics import rest_positions
-
-    if barm.elbow is None or harm.elbow is None:
-        return None
-    rb, rh = rest_positions(body_sk), rest_positions(hands_sk)
-    lb = np.linalg.norm(rb[barm.wrist] - rb[barm.elbow])
-    lh = np.linalg.norm(rh[harm.wrist] - rh[harm.elbow])
-    return float(lb / lh) if lh > 0 else None
 
 
 def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, progress=None,
@@ -297,14 +287,15 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         pins = [(c["body"], float(c["hands"]), float(c["tolerance"])) for c in cons]
         last = hm.n_frames - 1
         report_progress(f"{s}: merge", 0.0)
+        graft_report = None
         if not any(f in barm.fingers for f in FINGERS):
-            scale = _hand_scale(bm.skeleton, broles.sides[s], hm.skeleton, harm)
-            if scale is None:
-                scale = 1.0
-                note(f"{s} side: body has no finger joints and no forearm length to compare; "
-                     "the hands' fingers are grafted at their own size")
-            out, barm = graft_fingers(out, barm, hm.skeleton, harm, scale)
-            note(f"{s} side: the body has no finger joints; grafted the hands' {len(barm.finger_joints)} finger joints under {out.skeleton.names[barm.wrist]}")
+            # --- b-handgeom: graft scale from hand size / forearm (splicer.handgeom) ---
+            gs = graft_scale(bm.skeleton, broles.sides[s], hm.skeleton, harm)
+            out, barm = graft_fingers(out, barm, hm.skeleton, harm, gs.scale)
+            note(f"{s} side: the body has no finger joints; grafted the hands' {len(barm.finger_joints)} finger joints "
+                 f"under {out.skeleton.names[barm.wrist]} at scale {gs.scale:.4g} ({gs.method})")
+            graft_report = {"scale": gs.scale, "method": gs.method}
+            # --- end b-handgeom ---
         fmap = finger_map(out.skeleton, barm, hm.skeleton, harm)
         if opts.wrist == "hands":
             if harm.elbow is None:
@@ -335,6 +326,7 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
             "pass1": None if p1 is None else {"band_frames": round(float(p1.band.width), 3), "cost": float(p1.cost)},
             "pass2": None if p2 is None else {"band_frames": round(float(p2.band.width), 3), "cost": float(p2.cost)},
             "constraints": [{k: c[k] for k in ("body", "hands", "tolerance", "line")} for c in cons],
+            "graft": graft_report,  # b-handgeom
             "joints": {out.skeleton.names[b]: [hm.skeleton.names[j] for j in g] for b, g in zip(fmap.body, fmap.hands)},
         }
     timings["total"] = time.perf_counter() - t_start

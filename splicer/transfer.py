@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .handgeom import forearm_length
+from .handgeom import hand_frame as _robust_hand_frame
 from .kinematics import rest_positions
 from .model import Motion, Skeleton
 from .roles import FINGERS, ArmRoles
@@ -57,22 +59,9 @@ def _segments(sk: Skeleton, chain: tuple[int, ...], rest: np.ndarray) -> list[tu
 
 
 def hand_frame(sk: Skeleton, arm: ArmRoles) -> np.ndarray:
-    """Rest-pose hand frame (3x3, columns: long axis, radial axis, palm normal) in world axes."""
-    rest = rest_positions(sk)
-    bases = {f: rest[c[0]] for f, c in arm.fingers.items() if c}
-    w = rest[arm.wrist]
-    tip = bases.get("middle", np.mean(list(bases.values()), axis=0) if bases else w)
-    u = tip - w
-    radial = bases.get("index", bases.get("thumb"))
-    ulnar = bases.get("pinky", bases.get("ring"))
-    v = (radial - ulnar) if radial is not None and ulnar is not None else None
-    if v is None or np.linalg.norm(np.cross(u, v)) < 1e-9:
-        # no across-the-palm axis: use any axis perpendicular to u
-        v = np.cross(u, [0.0, 1.0, 0.0] if abs(u[1]) < 0.9 * np.linalg.norm(u) else [1.0, 0.0, 0.0])
-    u = u / np.linalg.norm(u)
-    v = v - u * np.dot(u, v)
-    v = v / np.linalg.norm(v)
-    return np.stack([u, v, np.cross(u, v)], axis=1)
+    """Rest-pose hand frame (3x3, columns: long axis, radial axis, ``long x radial``) in world
+    axes; finite for coarse rigs too (see :func:`splicer.handgeom.hand_frame`)."""
+    return _robust_hand_frame(sk, arm)
 
 
 def finger_map(body_sk: Skeleton, body_arm: ArmRoles, hands_sk: Skeleton, hands_arm: ArmRoles) -> FingerMap:
@@ -136,11 +125,12 @@ def graft_fingers(body: Motion, body_arm: ArmRoles, hands_sk: Skeleton, hands_ar
     # has no forearm, and its hand's long axis stands in for it
     rb = rest_positions(sk)
     rh = rest_positions(hands_sk)
-    if hands_arm.elbow is not None:
-        u_h = rh[hands_arm.wrist] - rh[hands_arm.elbow]
-    else:
+    # (a forearm joint at the wrist's place, as Leap's rForeArm, has no direction: the hand's
+    # long axis stands in for it too)
+    u_h = rh[hands_arm.wrist] - rh[hands_arm.elbow] if forearm_length(hands_sk, hands_arm, rh) else None
+    if u_h is None:
         u_h = hand_frame(hands_sk, hands_arm)[:, 0]
-    if body_arm.elbow is not None and np.linalg.norm(u_h) > 0:
+    if forearm_length(sk, body_arm, rb):
         C = quat_to_matrix(quat_between(u_h, rb[body_arm.wrist] - rb[body_arm.elbow]))
     else:
         C = np.eye(3)

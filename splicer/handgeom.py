@@ -15,6 +15,7 @@ back step by step, and says which fallback it took.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,13 +24,26 @@ from .kinematics import rest_positions
 from .model import Skeleton
 from .roles import ArmRoles
 
-__all__ = ["finger_anchors", "hand_points", "hand_frame", "hand_length", "forearm_length", "GraftScale",
+__all__ = ["same_anatomical_joint", "finger_anchors", "hand_points", "hand_frame", "hand_length", "forearm_length", "GraftScale",
            "graft_scale", "HAND_PER_FOREARM"]
 
 #: wrist -> middle-finger knuckle in forearm (elbow -> wrist) lengths: about 10 cm for 26 cm
 #: (adult averages, e.g. NASA-STD-3000 anthropometry); used only when nothing else compares
 HAND_PER_FOREARM = 0.4
 _TINY = 1e-6  # relative to the skeleton's extent
+
+
+_AXIS_SUFFIX = re.compile(r"[_.\- ]?(fe|aa|flex|flexion|abd|abduction|add|adduction|twist|pronation)$")
+_JOINT_TOKEN = re.compile(r"(cmc|mcp|pip|dip|ip)")
+
+
+def same_anatomical_joint(a: str, b: str) -> bool:
+    """Whether two joint names are two axes of one anatomical joint (``THUMB_CMC_FE`` and
+    ``THUMB_CMC_AA``): equal once an axis suffix (FE, AA, flex, abd, twist...) is removed, and
+    naming a finger joint (CMC, MCP, PIP, DIP, IP)."""
+    ka = _AXIS_SUFFIX.sub("", a.lower())
+    kb = _AXIS_SUFFIX.sub("", b.lower())
+    return ka == kb and ka != a.lower() and bool(_JOINT_TOKEN.search(ka))
 
 
 def _extent(rest: np.ndarray) -> float:

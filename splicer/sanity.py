@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .handgeom import hand_frame
+from .handgeom import hand_frame, same_anatomical_joint
 from .kinematics import global_transforms, rest_positions
 from .model import Motion
 from .roles import FINGERS, ArmRoles
@@ -89,7 +89,7 @@ def _chain_points(motion: Motion, arm: ArmRoles, finger: str, rest: np.ndarray, 
     carriers = [arm.wrist]
     prev_rest = rest[arm.wrist]
     for j in chain:
-        if np.linalg.norm(rest[j] - prev_rest) > eps:
+        if np.linalg.norm(rest[j] - prev_rest) > eps and not same_anatomical_joint(sk.names[carriers[-1]], sk.names[j]):
             pts.append(gpos[:, index[j]])
             carriers.append(j)
             prev_rest = rest[j]

@@ -22,11 +22,13 @@ from .bvh import read_bvh
 from .constraints import SpliceConfig, frame_number, read_config
 from .dtw import Constraint, band_frames
 from .errors import ConstraintError, SplicerError, SplicerWarning
+from .handedness import resolve_handedness  # b-handgeom
 from .handgeom import graft_scale  # b-handgeom
 from .markers import Markers, arm_markers
 from .merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
 from .model import Motion
 from .roles import FINGERS, SIDES, find_roles
+from .sanity import finger_sanity, sanity_warnings  # b-handgeom
 from .timewarp import sample_rotations
 from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
 
@@ -58,6 +60,7 @@ class SpliceOptions:
     coarse_fps: float = 5.0  # rate of the coarse guide pass, frames per second
     coarse_above_s: float = 120.0
     hands_side: str | None = None  # side of a hand-only file whose names do not say
+    mirror_hands: str | None = None  # b-handgeom: "auto", "yes", "no"; None: the config's, else auto
 
 
 @dataclass(frozen=True, eq=False)
@@ -229,6 +232,10 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         raise SplicerError(
             f"no side can be spliced: body sides {sorted(broles.sides) or 'none'}, hands sides "
             f"{sorted(hroles.sides) or 'none'} (requested: {opts.side})")
+    # --- b-handgeom: handedness (splicer.handedness): mirror a mirror-image hands file ---
+    hm, handedness_report = resolve_handedness(bm, broles, hm, hroles, todo,
+                                               mode=opts.mirror_hands or cfg.mirror_hands or "auto", note=note)
+    # --- end b-handgeom ---
     n = bm.n_frames
     ratio = hm.fps / bm.fps
     w1 = band_frames(opts.band1, n=n, fps=bm.fps)
@@ -329,6 +336,13 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
             "graft": graft_report,  # b-handgeom
             "joints": {out.skeleton.names[b]: [hm.skeleton.names[j] for j in g] for b, g in zip(fmap.body, fmap.hands)},
         }
+        # --- b-handgeom: finger sanity of the output (splicer.sanity) ---
+        hand_read = handedness_report["body"].get(s, {}).get("geometric") or s
+        san = finger_sanity(out, barm, +1 if hand_read == "right" else -1)
+        report_sides[s]["finger_sanity"] = san
+        for w in sanity_warnings(san, f"{s} side, output"):
+            note(w)
+        # --- end b-handgeom ---
     timings["total"] = time.perf_counter() - t_start
     report = {
         "splicer": __version__,
@@ -336,6 +350,7 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         "hands": {"path": hm.source, "frames": hm.n_frames, "fps": hm.fps},
         "options": {k: getattr(opts, k) for k in opts.__dataclass_fields__},
         "sides": report_sides,
+        "handedness": handedness_report,  # b-handgeom
         "timings_s": {k: round(v, 4) for k, v in timings.items()},
         "warnings": warn_list,
     }
@@ -346,7 +361,8 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
 def _check_options(o: SpliceOptions) -> None:
     choices = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
                "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
-               "coarse": ("auto", "on", "off")}
+               "coarse": ("auto", "on", "off"),
+               "mirror_hands": (None, "auto", "yes", "no")}  # mirror_hands: b-handgeom
     for k, allowed in choices.items():
         if getattr(o, k) not in allowed:
             raise SplicerError(f"{k} must be one of {', '.join(str(a) for a in allowed)}, not {getattr(o, k)!r}")

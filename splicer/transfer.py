@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .handgeom import forearm_length
+from .handgeom import forearm_length, same_anatomical_joint
 from .handgeom import hand_frame as _robust_hand_frame
 from .kinematics import rest_positions
 from .model import Motion, Skeleton
@@ -47,11 +47,13 @@ class FingerMap:
 
 
 def _segments(sk: Skeleton, chain: tuple[int, ...], rest: np.ndarray) -> list[tuple[int, ...]]:
-    """Group a finger chain into segments, merging joints placed at their parent's position."""
+    """Group a finger chain into segments, merging joints placed at their parent's position and
+    joints named as two axes of one anatomical joint (``THUMB_CMC_FE`` + ``THUMB_CMC_AA``)."""
     scale = max(float(np.ptp(rest, axis=0).max()), 1e-9)
     segs: list[list[int]] = []
     for j in chain:
-        if segs and np.linalg.norm(sk.offsets[j]) < 1e-6 * scale:
+        if segs and (np.linalg.norm(sk.offsets[j]) < 1e-6 * scale
+                     or same_anatomical_joint(sk.names[segs[-1][-1]], sk.names[j])):
             segs[-1].append(j)
         else:
             segs.append([j])

@@ -30,6 +30,7 @@ from .model import Motion
 from .roles import FINGERS, SIDES, find_roles
 from .sanity import finger_sanity, sanity_warnings  # b-handgeom
 from .timewarp import sample_rotations
+from .upaxis import detect_up  # b-handgeom
 from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
 
 __all__ = ["SpliceOptions", "SideResult", "SpliceResult", "splice"]
@@ -214,9 +215,16 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
     t0 = tick("read", t0)
 
     hands_side = opts.hands_side or cfg.hands_side
-    broles = find_roles(bm.skeleton, source=bm.source or "body", mapping=cfg.joints.get("body"), up=cfg.up.get("body"))
+    # --- b-handgeom: up axis from the animated motion (splicer.upaxis); up: in the config overrides ---
+    up_b, up_h = detect_up(bm, override=cfg.up.get("body")), detect_up(hm, override=cfg.up.get("hands"))
+    for u, src in ((up_b, bm.source or "body"), (up_h, hm.source or "hands")):
+        if u.source == "motion" and u.axis != u.rest_axis:
+            note(f"{src}: the rest skeleton stands along {'xyz'[u.rest_axis]} but the motion along {'xyz'[u.axis]} "
+                 f"({u.why}); using {'xyz'[u.axis]} as up")
+    broles = find_roles(bm.skeleton, source=bm.source or "body", mapping=cfg.joints.get("body"), up=up_b.axis)
     hroles = find_roles(hm.skeleton, source=hm.source or "hands", mapping=cfg.joints.get("hands"),
-                        up=cfg.up.get("hands"), side=hands_side)
+                        up=up_h.axis, side=hands_side)
+    # --- end b-handgeom ---
     sides = list(SIDES) if opts.side == "both" else [opts.side]
     todo = []
     for s in sides:
@@ -351,6 +359,7 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         "options": {k: getattr(opts, k) for k in opts.__dataclass_fields__},
         "sides": report_sides,
         "handedness": handedness_report,  # b-handgeom
+        "up": {"body": up_b.as_dict(), "hands": up_h.as_dict()},  # b-handgeom
         "timings_s": {k: round(v, 4) for k, v in timings.items()},
         "warnings": warn_list,
     }

@@ -70,9 +70,11 @@ def test_a_mirrored_hand_splices_to_the_originals_result(sep):
     assert b.report["handedness"]["hands"]["right"]["geometric"] == "left"
     assert any("mirror image" in w for w in b.report["warnings"])
     fa, fb = np.asarray(a.report["sides"]["right"]["hands_frame"]), np.asarray(b.report["sides"]["right"]["hands_frame"])
-    assert np.abs(fa - fb).mean() < 0.5  # hands frames
+    # mirrored back through another plane than the test's: the original turned by a half turn
+    # about the vertical, to which the alignment is blind (measured: identical paths, 4e-6 deg)
+    np.testing.assert_allclose(fb, fa, atol=1e-6)
     err = quat_angle(_fingers(a, "right"), _fingers(b, "right"))
-    assert np.median(err) < 1.0 and np.percentile(err, 95) < 5.0  # degrees
+    assert err.max() < 1e-3  # degrees
     # forced off: the mirror image is kept, its fingers bend backwards, and the report says so
     c = splice(sep.body, mirrored, mirror_hands="no")
     assert not c.report["handedness"]["mirrored"]

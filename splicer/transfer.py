@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .handgeom import forearm_length, same_anatomical_joint
+from .handgeom import finger_anchors, forearm_length, same_anatomical_joint
 from .handgeom import hand_frame as _robust_hand_frame
 from .kinematics import rest_positions
 from .model import Motion, Skeleton
@@ -80,6 +80,20 @@ def finger_map(body_sk: Skeleton, body_arm: ArmRoles, hands_sk: Skeleton, hands_
             if len(body_sk.rotation_columns(bj)) == 3:
                 body_joints.append(bj)
                 hands_groups.append(hg)
+    # a coarse body hand (CMU: LeftFingerBase -> LFingers, one generic finger) follows the hands'
+    # middle finger from its knuckle: the generic chain's first joint away from the wrist (or
+    # the one whose End Site is the finger) takes the MCP, and so on outward
+    if "hand" in body_arm.fingers and not any(f in body_arm.fingers for f in FINGERS[1:]):
+        src = next((f for f in ("middle", "index", "ring") if f in hands_arm.fingers), None)
+        anchor = finger_anchors(body_sk, body_arm, rb).get("hand")
+        if src is not None and anchor is not None:
+            chain = body_arm.fingers["hand"]
+            sub = chain[chain.index(anchor[0]):]
+            bsegs = [sub[0]] + [s[0] for s in _segments(body_sk, sub, rb)[1:]]
+            for bj, hg in zip(bsegs, _segments(hands_sk, hands_arm.fingers[src], rh)):
+                if len(body_sk.rotation_columns(bj)) == 3:
+                    body_joints.append(bj)
+                    hands_groups.append(hg)
     C = hand_frame(body_sk, body_arm) @ hand_frame(hands_sk, hands_arm).T
     return FingerMap(tuple(body_joints), tuple(hands_groups), quat_from_matrix(C))
 

@@ -105,3 +105,16 @@ def test_two_axes_of_one_joint_are_recognised():
     assert same_anatomical_joint("THUMB_CMC_FE", "THUMB_CMC_AA")
     assert not same_anatomical_joint("THUMB_CMC_AA", "THUMB_MCP_FE")
     assert not same_anatomical_joint("rThumb1", "rThumb2")
+
+
+def test_a_coarse_body_hand_follows_the_middle_finger_from_its_knuckle():
+    from splicer.transfer import finger_map
+
+    body = _cmu_like()
+    barm = find_roles(body).sides["right"]
+    hsk, harm = _hand_only(1.0, forearm=None)
+    fmap = finger_map(body, barm, hsk, harm)
+    pairs = {body.names[b]: [hsk.names[j] for j in g] for b, g in zip(fmap.body, fmap.hands)}
+    # RightFingerBase sits at the wrist: RFingers, the first joint away from it, takes the MCP
+    assert pairs == {"RFingers": ["rMid1"]}
+    assert np.all(np.isfinite(fmap.conj))

@@ -20,14 +20,13 @@ import numpy as np
 from .errors import RoleError
 from .kinematics import global_transforms, rest_positions
 from .model import Motion
-from .handgeom import finger_anchors
+from .handgeom import HAND_PER_FOREARM, finger_anchors
 from .roles import ArmRoles
 from .rotations import quat_rotate
 
 __all__ = ["Markers", "arm_markers", "root_heading"]
 
 _FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
-_HAND_PER_FOREARM = 0.4  # wrist -> knuckles in forearm lengths, for bodies without finger joints
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,7 +130,7 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
         # wrist's End Site), turned with the wrist
         tip = sk.end_sites[arm.wrist]
         if np.any(np.isnan(tip)):
-            tip = _HAND_PER_FOREARM * (rest[arm.wrist] - rest[arm.elbow])
+            tip = HAND_PER_FOREARM * (rest[arm.wrist] - rest[arm.elbow])
         bpos["hand"] = w + quat_rotate(grot[:, 0], tip)
 
     # hand marker

@@ -6,7 +6,6 @@ import pytest
 from splicer.handgeom import hand_frame
 from splicer.model import Motion
 from splicer.roles import find_roles
-from splicer.rotations import quat_mul
 from splicer.sanity import finger_angles, finger_sanity, sanity_warnings
 from splicer.synth import gesture_skeleton, make_gesture_take
 

@@ -13,8 +13,9 @@ The splice
     :func:`splice` (the whole job), :class:`SpliceOptions`, :class:`SpliceResult`,
     :class:`SideResult`, :class:`Report` (``to_dict()``, ``to_json()``), :class:`SideReport`.
 Stages (each returns a typed result; :func:`splice` composes them)
-    :func:`load_inputs` -> :func:`find_rig` -> :func:`side_markers` -> :func:`align_side`
-    -> :func:`time_map` -> :func:`transfer_side` -> :func:`build_report`.
+    :func:`load_inputs` -> :func:`find_rig` -> :func:`condition_hands` -> :func:`side_markers`
+    -> :func:`align_side` -> :func:`time_map` -> :func:`transfer_side` -> :func:`check_fingers`
+    -> :func:`build_report`.
 The constraints file
     :func:`read_config`, :func:`parse_config`, :class:`SpliceConfig`, :class:`Pin`.
 Skeletons
@@ -47,7 +48,7 @@ from .model import Motion, Skeleton  # noqa: E402
 _LAZY = {
     "read_bvh": ".bvh", "write_bvh": ".bvh",
     "splice": ".pipeline", "SpliceResult": ".pipeline", "SideResult": ".pipeline",
-    "load_inputs": ".pipeline", "find_rig": ".pipeline", "side_markers": ".pipeline", "align_side": ".pipeline",
+    "load_inputs": ".pipeline", "find_rig": ".pipeline", "condition_hands": ".pipeline", "check_fingers": ".pipeline", "side_markers": ".pipeline", "align_side": ".pipeline",
     "time_map": ".pipeline", "transfer_side": ".pipeline", "build_report": ".pipeline",
     "SpliceOptions": ".options",
     "Report": ".report", "SideReport": ".report",

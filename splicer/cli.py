@@ -52,6 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--merge", choices=("timemap", "median"), default="timemap",
                    help="smooth time map with slerp (default) or the paper's median + blend")
     p.add_argument("--wrist", choices=("body", "hands"), default="body", help="wrist rotation from the body (default) or the hands take")
+    p.add_argument("--mirror-hands", choices=("auto", "yes", "no"), default=None,  # b-handgeom
+                   help="mirror the hands take (a left-handed export) so its fingers flex toward the palm: auto "
+                        "(the default: when its geometry is the other hand's), yes or no")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary (errors still go to stderr)")
     return p
 
@@ -138,7 +141,8 @@ def main(argv=None) -> int:
             warnings.simplefilter("ignore")  # warnings are collected into the report and the summary
             result = splice(args.body, args.hands, config=args.constraints, progress=progress,
                             side=args.side, band1=args.band1, band2=args.band2, theta=args.theta,
-                            passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side)
+                            passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
+                            mirror_hands=args.mirror_hands)
         write_bvh(result.motion, out)
         if args.report:
             _write_json(result.report.to_dict(), Path(args.report))

@@ -31,7 +31,7 @@ from .errors import ConstraintError
 
 __all__ = ["PairSpec", "SpliceConfig", "read_config", "parse_config", "frame_number"]
 
-_TOP_KEYS = {"tolerance", "side", "pairs", "joints", "up", "hands_side"}
+_TOP_KEYS = {"tolerance", "side", "pairs", "joints", "up", "hands_side", "mirror_hands"}
 _PAIR_KEYS = {"body", "hands", "tolerance", "side"}
 _SIDES = ("left", "right", "both")
 _TIME = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*s\s*$")
@@ -59,6 +59,7 @@ class SpliceConfig:
     up: dict = field(default_factory=dict)
     hands_side: str | None = None
     source: str = "<config>"
+    mirror_hands: str | None = None  # b-handgeom: "auto", "yes", "no"; None = not given
 
 
 def frame_number(value, fps: float, *, what: str) -> int:
@@ -157,7 +158,15 @@ def parse_config(text: str, source: str = "<config>") -> SpliceConfig:
     hands_side = _scalar(top["hands_side"]) if "hands_side" in top else None
     if hands_side not in (None, "left", "right"):
         raise ConstraintError(f"{source}, line {lines['hands_side']}: hands_side must be left or right, not {hands_side!r}")
-    return SpliceConfig(tuple(pairs), tol, joints or {}, {k: str(v).lower() for k, v in up.items()}, hands_side, source)
+    # --- b-handgeom: mirror_hands (YAML 1.1 reads yes/no as booleans) ---
+    mirror = _scalar(top["mirror_hands"]) if "mirror_hands" in top else None
+    if isinstance(mirror, bool):
+        mirror = "yes" if mirror else "no"
+    if mirror not in (None, "auto", "yes", "no"):
+        raise ConstraintError(f"{source}, line {lines['mirror_hands']}: mirror_hands must be auto, yes or no, not {mirror!r}")
+    # --- end b-handgeom ---
+    return SpliceConfig(tuple(pairs), tol, joints or {}, {k: str(v).lower() for k, v in up.items()}, hands_side, source,
+                        mirror)
 
 
 def _check_tolerance(tol, what: str) -> None:

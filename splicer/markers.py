@@ -20,13 +20,13 @@ import numpy as np
 from .errors import RoleError
 from .kinematics import global_transforms, rest_positions
 from .model import Motion
+from .handgeom import HAND_PER_FOREARM, finger_anchors
 from .roles import ArmRoles
 from .rotations import quat_rotate
 
 __all__ = ["Markers", "arm_markers", "root_heading"]
 
 _FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
-_HAND_PER_FOREARM = 0.4  # wrist -> knuckles in forearm lengths, for bodies without finger joints
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,25 +106,31 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
         When the hand has no finger joints to place the hand and wrist markers.
     """
     sk = motion.skeleton
-    bases = {f: chain[0] for f, chain in arm.fingers.items() if chain}
+    rest = rest_positions(sk)
+    # each finger's base: its first joint away from the wrist, or its End Site (coarse rigs
+    # such as CMU put LeftFingerBase and LThumb at the wrist's place)
+    anchors = finger_anchors(sk, arm, rest)
+    bases = {f: j for f, (j, _) in anchors.items()}
     if not bases and arm.elbow is None:
         raise RoleError(
             f"{motion.source or 'motion'}: the {arm.side} hand ({sk.names[arm.wrist]}) has neither finger joints "
-            "nor a forearm joint; the hand markers need one of them"
+            "away from the wrist nor a forearm joint; the hand markers need one of them"
         )
     extra = [j for j in (arm.elbow, arm.upper_arm) if j is not None]
     base_list = list(bases.values())
     joints = [arm.wrist] + extra + base_list
     grot, gpos = global_transforms(motion, joints)
     w = gpos[:, 0]
-    bpos = {f: gpos[:, 1 + len(extra) + k] for k, f in enumerate(bases)}
+    bpos = {}
+    for k, (f, (j, off)) in enumerate(anchors.items()):
+        g = 1 + len(extra) + k
+        bpos[f] = gpos[:, g] if not np.any(off) else gpos[:, g] + quat_rotate(grot[:, g], off)
     if not bpos:
         # a body without finger joints: the hand continues the forearm at rest (or reaches the
         # wrist's End Site), turned with the wrist
-        rest = rest_positions(sk)
         tip = sk.end_sites[arm.wrist]
         if np.any(np.isnan(tip)):
-            tip = _HAND_PER_FOREARM * (rest[arm.wrist] - rest[arm.elbow])
+            tip = HAND_PER_FOREARM * (rest[arm.wrist] - rest[arm.elbow])
         bpos["hand"] = w + quat_rotate(grot[:, 0], tip)
 
     # hand marker
@@ -135,6 +141,8 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
     # radial-ulnar axis
     radial = bpos.get("index", bpos.get("thumb"))
     ulnar = bpos.get("pinky", bpos.get("ring"))
+    if radial is not None and ulnar is None and radial is not p4:
+        ulnar = p4  # index or thumb against the hand's middle: still the radial side
     if radial is None or ulnar is None:
         # coarse rig: across the palm, perpendicular to the hand's long axis and the up axis of the wrist
         long_axis = p4 - w
@@ -153,9 +161,8 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
         # no elbow position: the forearm continues straight back from the rest-pose hand,
         # turned with the forearm joint when there is one (Leap: rForeArm at the wrist) or
         # with the wrist (wrist-rooted files).  At rest every joint frame is the world frame.
-        rest = rest_positions(sk)
-        mid_base = bases.get("middle", base_list[0] if base_list else arm.wrist)
-        hand_vec = rest[mid_base] - rest[arm.wrist]
+        f0 = "middle" if "middle" in anchors else next(iter(anchors), None)
+        hand_vec = (rest[anchors[f0][0]] + anchors[f0][1] - rest[arm.wrist]) if f0 else np.zeros(3)
         back = -_FOREARM_PER_HAND * hand_vec
         parent = int(sk.parents[arm.wrist])
         turn = grot[:, 0] if parent < 0 else global_transforms(motion, [parent])[0][:, 0]

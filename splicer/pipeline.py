@@ -20,9 +20,9 @@ from .model import Motion
 from .options import SpliceOptions, resolve_options
 from .report import Report, SideReport
 
-__all__ = ["Inputs", "Rig", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
-           "load_inputs", "find_rig", "side_markers", "align_side", "time_map", "transfer_side", "build_report",
-           "splice"]
+__all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
+           "load_inputs", "find_rig", "condition_hands", "side_markers", "align_side", "time_map", "transfer_side",
+           "check_fingers", "build_report", "splice"]
 
 
 class Log:
@@ -93,11 +93,12 @@ def load_inputs(body, hands, config=None, log: Log | None = None) -> Inputs:
 
 @dataclass(frozen=True)
 class Rig:
-    """Skeleton roles of both takes and the sides to splice."""
+    """Skeleton roles of both takes, the sides to splice, and how each up axis was decided."""
 
     body: object  # Roles
     hands: object  # Roles
     sides: tuple[str, ...]
+    up: dict = field(default_factory=dict)  # {"body": UpAxis, "hands": UpAxis}
 
 
 def find_rig(inputs: Inputs, opts: SpliceOptions, log: Log | None = None) -> Rig:
@@ -109,13 +110,20 @@ def find_rig(inputs: Inputs, opts: SpliceOptions, log: Log | None = None) -> Rig
         No side can be spliced.
     """
     from .roles import FINGERS, SIDES, find_roles
+    from .upaxis import detect_up
 
     log = log or Log()
     bm, hm, cfg = inputs.body, inputs.hands, inputs.config
     hands_side = opts.hands_side or cfg.hands_side
-    broles = find_roles(bm.skeleton, source=bm.source or "body", mapping=cfg.joints.get("body"), up=cfg.up.get("body"))
+    # the up axis from the animated motion (head above hips...); the config's up: overrides
+    up = {"body": detect_up(bm, override=cfg.up.get("body")), "hands": detect_up(hm, override=cfg.up.get("hands"))}
+    for u, src in ((up["body"], bm.source or "body"), (up["hands"], hm.source or "hands")):
+        if u.source == "motion" and u.axis != u.rest_axis:
+            log.note(f"{src}: the rest skeleton stands along {'xyz'[u.rest_axis]} but the motion along "
+                     f"{'xyz'[u.axis]} ({u.why}); using {'xyz'[u.axis]} as up")
+    broles = find_roles(bm.skeleton, source=bm.source or "body", mapping=cfg.joints.get("body"), up=up["body"].axis)
     hroles = find_roles(hm.skeleton, source=hm.source or "hands", mapping=cfg.joints.get("hands"),
-                        up=cfg.up.get("hands"), side=hands_side)
+                        up=up["hands"].axis, side=hands_side)
     todo = []
     for s in (SIDES if opts.side == "both" else (opts.side,)):
         if s not in broles.sides:
@@ -131,7 +139,43 @@ def find_rig(inputs: Inputs, opts: SpliceOptions, log: Log | None = None) -> Rig
             f"no side can be spliced: body sides {sorted(broles.sides) or 'none'}, hands sides "
             f"{sorted(hroles.sides) or 'none'} (requested: {opts.side})")
     log.tick("roles")
-    return Rig(broles, hroles, tuple(todo))
+    return Rig(broles, hroles, tuple(todo), up)
+
+
+# ---------------------------------------------------------------- stage 2b: condition the hands take
+
+@dataclass(frozen=True, eq=False)
+class Conditioned:
+    """The inputs after the hands take was checked and, where needed, converted.
+
+    Attributes
+    ----------
+    inputs : Inputs
+        With the hands motion mirrored (a mirror-image export) when that was decided.
+    report : dict
+        JSON-ready: ``{"handedness": {...}}``.
+    """
+
+    inputs: Inputs
+    report: dict
+
+
+def condition_hands(inputs: Inputs, rig: Rig, opts: SpliceOptions, log: Log | None = None) -> Conditioned:
+    """Check the hands take before aligning: handedness (a mirror image is mirrored back, with a warning).
+
+    Raises
+    ------
+    SplicerError
+        The handedness cannot be decided in ``auto`` mode (contradicting geometry).
+    """
+    from .handedness import resolve_handedness
+
+    log = log or Log()
+    mode = opts.mirror_hands or inputs.config.mirror_hands or "auto"
+    hm, handedness = resolve_handedness(inputs.body, rig.body, inputs.hands, rig.hands, rig.sides, mode=mode,
+                                        note=log.note)
+    log.tick("checks")
+    return Conditioned(Inputs(inputs.body, hm, inputs.config), {"handedness": handedness})
 
 
 # ---------------------------------------------------------------- stage 3: markers
@@ -325,17 +369,23 @@ class Transfer:
 
     motion: Motion
     joints: dict
+    arm: object = None  # ArmRoles of the side on the output skeleton
+    extra: dict = field(default_factory=dict)  # JSON-ready report keys (e.g. the graft scale)
 
 
-def _hand_scale(body_sk, barm, hands_sk, harm) -> float | None:
-    from .kinematics import rest_positions
+def check_fingers(transfer: Transfer, side: str, handedness: dict, log: Log | None = None) -> dict:
+    """Finger sanity of the output (:mod:`splicer.sanity`): backward bending, joint ranges, DIP/PIP.
 
-    if barm.elbow is None or harm.elbow is None:
-        return None
-    rb, rh = rest_positions(body_sk), rest_positions(hands_sk)
-    lb = np.linalg.norm(rb[barm.wrist] - rb[barm.elbow])
-    lh = np.linalg.norm(rh[harm.wrist] - rh[harm.elbow])
-    return float(lb / lh) if lh > 0 else None
+    Returns the JSON-ready summary and adds a warning per finger above the thresholds.
+    """
+    from .sanity import finger_sanity, sanity_warnings
+
+    log = log or Log()
+    reading = handedness.get("body", {}).get(side, {}).get("geometric") or side
+    san = finger_sanity(transfer.motion, transfer.arm, +1 if reading == "right" else -1)
+    for w in sanity_warnings(san, f"{side} side, output"):
+        log.note(w)
+    return san
 
 
 def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: Alignment, tm: np.ndarray,
@@ -349,6 +399,7 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
     from .roles import FINGERS, find_roles
     from .rotations import quat_slerp
     from .timewarp import sample_rotations
+    from .handgeom import graft_scale
     from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
 
     log = log or Log()
@@ -356,15 +407,13 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
     bm, hm, cfg = inputs.body, inputs.hands, inputs.config
     barm = find_roles(out.skeleton, source=bm.source, mapping=cfg.joints.get("body"), up=rig.body.up).sides[side]
     harm = rig.hands.sides[side]
+    extra: dict = {}
     if not any(f in barm.fingers for f in FINGERS):
-        scale = _hand_scale(bm.skeleton, rig.body.sides[side], hm.skeleton, harm)
-        if scale is None:
-            scale = 1.0
-            log.note(f"{side} side: body has no finger joints and no forearm length to compare; "
-                     "the hands' fingers are grafted at their own size")
-        out, barm = graft_fingers(out, barm, hm.skeleton, harm, scale)
-        log.note(f"{side} side: the body has no finger joints; grafted the hands' {len(barm.finger_joints)} "
-                 f"finger joints under {out.skeleton.names[barm.wrist]}")
+        gs = graft_scale(bm.skeleton, rig.body.sides[side], hm.skeleton, harm)  # hand size, else forearm
+        out, barm = graft_fingers(out, barm, hm.skeleton, harm, gs.scale)
+        log.note(f"{side} side: the body has no finger joints; grafted the hands' {len(barm.finger_joints)} finger "
+                 f"joints under {out.skeleton.names[barm.wrist]} at scale {gs.scale:.4g} ({gs.method})")
+        extra["graft"] = {"scale": gs.scale, "method": gs.method}
     fmap = finger_map(out.skeleton, barm, hm.skeleton, harm)
     if opts.wrist == "hands":
         if harm.elbow is None:
@@ -396,7 +445,7 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
         log.note(f"{side} side: no finger joints could be paired between body and hands")
     log.tick("transfer")
     return Transfer(out, {out.skeleton.names[b]: [hm.skeleton.names[j] for j in g]
-                          for b, g in zip(fmap.body, fmap.hands)})
+                          for b, g in zip(fmap.body, fmap.hands)}, barm, extra)
 
 
 # ---------------------------------------------------------------- stage 7: report
@@ -415,6 +464,8 @@ class SideResult:
     hands_frame: np.ndarray
     markers: SideMarkers
     alignment: Alignment
+    joints: dict = field(default_factory=dict)  # output joint -> hands joints driving it
+    extra: dict = field(default_factory=dict)  # JSON-ready report keys of later stages
 
     @property
     def pass1(self):
@@ -495,8 +546,8 @@ def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
     return out
 
 
-def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, joints: dict, log: Log) -> Report:
-    """The typed report of a finished splice."""
+def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, extra: dict | None = None) -> Report:
+    """The typed report of a finished splice (``extra``: further top-level keys)."""
     from . import __version__
 
     def pass_info(p):
@@ -505,14 +556,14 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, joints: dict,
     side_reports = {}
     for s, r in sides.items():
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in r.pins)
-        side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, joints[s],
-                                     _coverage_report(r, inputs.body.n_frames, log))
+        side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, r.joints,
+                                     {**r.extra, **_coverage_report(r, inputs.body.n_frames, log)})
     bm, hm = inputs.body, inputs.hands
     timings = dict(log.timings, total=log.total())
     return Report(__version__, {"path": bm.source, "frames": bm.n_frames, "fps": bm.fps},
                   {"path": hm.source, "frames": hm.n_frames, "fps": hm.fps},
                   {f: getattr(opts, f) for f in opts.__dataclass_fields__}, side_reports, timings,
-                  tuple(log.warnings))
+                  tuple(log.warnings), dict(extra or {}))
 
 
 # ---------------------------------------------------------------- the whole job
@@ -548,14 +599,17 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     log = Log(progress)
     inputs = load_inputs(body, hands, config, log)
     rig = find_rig(inputs, opts, log)
-    out, sides, joints = inputs.body, {}, {}
+    checked = condition_hands(inputs, rig, opts, log)
+    inputs, out, sides = checked.inputs, checked.inputs.body, {}
     for s in rig.sides:
         markers = side_markers(inputs, rig, s, log)
         alignment = align_side(markers, opts, log)
         tm = time_map(alignment, markers, opts)
         transfer = transfer_side(out, inputs, rig, s, alignment, tm, opts, log, pins=markers.pins)
-        out, joints[s] = transfer.motion, transfer.joints
-        sides[s] = SideResult(s, tm, markers, alignment)
-    report = build_report(inputs, opts, sides, joints, log)
+        sanity = check_fingers(transfer, s, checked.report["handedness"], log)
+        out = transfer.motion
+        sides[s] = SideResult(s, tm, markers, alignment, transfer.joints, {**transfer.extra, "finger_sanity": sanity})
+    report = build_report(inputs, opts, sides, log,
+                          extra={**checked.report, "up": {k: u.as_dict() for k, u in rig.up.items()}})
     log.progress("done", 1.0)
     return SpliceResult(out, report, sides)

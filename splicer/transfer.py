@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .handgeom import finger_anchors, forearm_length, same_anatomical_joint
+from .handgeom import hand_frame as _robust_hand_frame
 from .kinematics import rest_positions
 from .model import Motion, Skeleton, preorder
 from .roles import FINGERS, ArmRoles
@@ -45,11 +47,13 @@ class FingerMap:
 
 
 def _segments(sk: Skeleton, chain: tuple[int, ...], rest: np.ndarray) -> list[tuple[int, ...]]:
-    """Group a finger chain into segments, merging joints placed at their parent's position."""
+    """Group a finger chain into segments, merging joints placed at their parent's position and
+    joints named as two axes of one anatomical joint (``THUMB_CMC_FE`` + ``THUMB_CMC_AA``)."""
     scale = max(float(np.ptp(rest, axis=0).max()), 1e-9)
     segs: list[list[int]] = []
     for j in chain:
-        if segs and np.linalg.norm(sk.offsets[j]) < 1e-6 * scale:
+        if segs and (np.linalg.norm(sk.offsets[j]) < 1e-6 * scale
+                     or same_anatomical_joint(sk.names[segs[-1][-1]], sk.names[j])):
             segs[-1].append(j)
         else:
             segs.append([j])
@@ -57,22 +61,9 @@ def _segments(sk: Skeleton, chain: tuple[int, ...], rest: np.ndarray) -> list[tu
 
 
 def hand_frame(sk: Skeleton, arm: ArmRoles) -> np.ndarray:
-    """Rest-pose hand frame (3x3, columns: long axis, radial axis, palm normal) in world axes."""
-    rest = rest_positions(sk)
-    bases = {f: rest[c[0]] for f, c in arm.fingers.items() if c}
-    w = rest[arm.wrist]
-    tip = bases.get("middle", np.mean(list(bases.values()), axis=0) if bases else w)
-    u = tip - w
-    radial = bases.get("index", bases.get("thumb"))
-    ulnar = bases.get("pinky", bases.get("ring"))
-    v = (radial - ulnar) if radial is not None and ulnar is not None else None
-    if v is None or np.linalg.norm(np.cross(u, v)) < 1e-9:
-        # no across-the-palm axis: use any axis perpendicular to u
-        v = np.cross(u, [0.0, 1.0, 0.0] if abs(u[1]) < 0.9 * np.linalg.norm(u) else [1.0, 0.0, 0.0])
-    u = u / np.linalg.norm(u)
-    v = v - u * np.dot(u, v)
-    v = v / np.linalg.norm(v)
-    return np.stack([u, v, np.cross(u, v)], axis=1)
+    """Rest-pose hand frame (3x3, columns: long axis, radial axis, ``long x radial``) in world
+    axes; finite for coarse rigs too (see :func:`splicer.handgeom.hand_frame`)."""
+    return _robust_hand_frame(sk, arm)
 
 
 def finger_map(body_sk: Skeleton, body_arm: ArmRoles, hands_sk: Skeleton, hands_arm: ArmRoles) -> FingerMap:
@@ -89,6 +80,20 @@ def finger_map(body_sk: Skeleton, body_arm: ArmRoles, hands_sk: Skeleton, hands_
             if len(body_sk.rotation_columns(bj)) == 3:
                 body_joints.append(bj)
                 hands_groups.append(hg)
+    # a coarse body hand (CMU: LeftFingerBase -> LFingers, one generic finger) follows the hands'
+    # middle finger from its knuckle: the generic chain's first joint away from the wrist (or
+    # the one whose End Site is the finger) takes the MCP, and so on outward
+    if "hand" in body_arm.fingers and not any(f in body_arm.fingers for f in FINGERS[1:]):
+        src = next((f for f in ("middle", "index", "ring") if f in hands_arm.fingers), None)
+        anchor = finger_anchors(body_sk, body_arm, rb).get("hand")
+        if src is not None and anchor is not None:
+            chain = body_arm.fingers["hand"]
+            sub = chain[chain.index(anchor[0]):]
+            bsegs = [sub[0]] + [s[0] for s in _segments(body_sk, sub, rb)[1:]]
+            for bj, hg in zip(bsegs, _segments(hands_sk, hands_arm.fingers[src], rh)):
+                if len(body_sk.rotation_columns(bj)) == 3:
+                    body_joints.append(bj)
+                    hands_groups.append(hg)
     C = hand_frame(body_sk, body_arm) @ hand_frame(hands_sk, hands_arm).T
     return FingerMap(tuple(body_joints), tuple(hands_groups), quat_from_matrix(C))
 
@@ -123,11 +128,12 @@ def graft_fingers(body: Motion, body_arm: ArmRoles, hands_sk: Skeleton, hands_ar
     # has no forearm, and its hand's long axis stands in for it
     rb = rest_positions(sk)
     rh = rest_positions(hands_sk)
-    if hands_arm.elbow is not None:
-        u_h = rh[hands_arm.wrist] - rh[hands_arm.elbow]
-    else:
+    # (a forearm joint at the wrist's place, as Leap's rForeArm, has no direction: the hand's
+    # long axis stands in for it too)
+    u_h = rh[hands_arm.wrist] - rh[hands_arm.elbow] if forearm_length(hands_sk, hands_arm, rh) else None
+    if u_h is None:
         u_h = hand_frame(hands_sk, hands_arm)[:, 0]
-    if body_arm.elbow is not None and np.linalg.norm(u_h) > 0:
+    if forearm_length(sk, body_arm, rb):
         C = quat_to_matrix(quat_between(u_h, rb[body_arm.wrist] - rb[body_arm.elbow]))
     else:
         C = np.eye(3)

@@ -189,8 +189,8 @@ def quat_from_matrix(m: np.ndarray) -> np.ndarray:
     """Unit quaternions ``(..., 4)`` of rotation matrices ``(..., 3, 3)`` (Shepperd's method).
 
     Each matrix is read through its largest of ``trace, m00, m11, m22``, so no division is
-    ill-conditioned; the result has ``w >= 0``.  A degenerate matrix never raises: NaN in
-    gives NaN out, the zero matrix gives the identity; callers decide what such a frame means.
+    ill-conditioned; the result has ``w >= 0``.  The zero matrix gives the identity; NaN or
+    infinity raises ``ValueError`` (a degenerate frame upstream: callers must handle it first).
 
     Examples
     --------
@@ -198,6 +198,8 @@ def quat_from_matrix(m: np.ndarray) -> np.ndarray:
     [0.707107, 0.0, 0.0, 0.707107]
     """
     m = np.asarray(m, dtype=np.float64)
+    if not np.all(np.isfinite(m)):
+        raise ValueError("quat_from_matrix: the matrices contain NaN or infinity (a degenerate frame upstream)")
     m00, m01, m02 = m[..., 0, 0], m[..., 0, 1], m[..., 0, 2]
     m10, m11, m12 = m[..., 1, 0], m[..., 1, 1], m[..., 1, 2]
     m20, m21, m22 = m[..., 2, 0], m[..., 2, 1], m[..., 2, 2]

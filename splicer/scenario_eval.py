@@ -39,7 +39,7 @@ from .baselines import generic_dtw_frames, oracle_frames, uniform_frames
 from .errors import SplicerError
 from .model import Motion
 from .roles import find_roles
-from .rotations import quat_angle
+from .rotations import quat_angle_deg
 from .scenarios import SCENARIOS, ScenarioSeparation, alignment_error_s, make_scenario, scenario
 from .separate import moving_finger_joints
 from .splice import splice
@@ -246,7 +246,7 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
         unc_all = np.concatenate(uncs) if has_unc else None
         low_all = np.concatenate(lows) if has_low else None
         rec = {"method": method, **alignment_scores(err, cov, fb), **pause_scores(err, sep, len(errs))}
-        rec["finger_deg"] = float(np.mean(quat_angle(q[covered], ref[covered]))) if covered.any() else np.nan
+        rec["finger_deg"] = float(np.mean(quat_angle_deg(q[covered], ref[covered]))) if covered.any() else np.nan
         rec["covered"] = 100.0 * float(covered.mean())
         rec.update(uncovered_scores(cov, unc_all))
         fl = flag_scores(err, cov, unc_all, low_all)

@@ -10,9 +10,9 @@ from splicer.errors import SplicerError
 from splicer.handedness import hand_handedness, mirror_motion
 from splicer.kinematics import global_transforms
 from splicer.roles import find_roles
-from splicer.rotations import quat_angle, quat_conj
+from splicer.rotations import quat_angle_deg, quat_conj
 from splicer.separate import separate
-from splicer.splice import splice
+from splicer import splice
 from splicer.synth import make_gesture_take
 
 from conftest import SHARED_MOTIONS, SHARED_SKIP_REASON
@@ -73,7 +73,7 @@ def test_a_mirrored_hand_splices_to_the_originals_result(sep):
     # mirrored back through another plane than the test's: the original turned by a half turn
     # about the vertical, to which the alignment is blind (measured: identical paths, 4e-6 deg)
     np.testing.assert_allclose(fb, fa, atol=1e-6)
-    err = quat_angle(_fingers(a, "right"), _fingers(b, "right"))
+    err = quat_angle_deg(_fingers(a, "right"), _fingers(b, "right"))
     assert err.max() < 1e-3  # degrees
     # forced off: the mirror image is kept, its fingers bend backwards, and the report says so
     c = splice(sep.body, mirrored, mirror_hands="no")

@@ -56,7 +56,7 @@ def _png_size(path: Path) -> tuple[int, int]:
 
 @pytest.fixture(scope="module")
 def sample_result():
-    from splicer.splice import splice
+    from splicer import splice
 
     if not (MOTIONS / "sample_body.bvh").exists():
         pytest.skip("motions/sample_body.bvh is missing")

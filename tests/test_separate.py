@@ -7,7 +7,7 @@ import pytest
 
 from splicer.kinematics import global_transforms
 from splicer.roles import find_roles
-from splicer.rotations import quat_angle, quat_rotate
+from splicer.rotations import quat_angle_deg, quat_rotate
 from splicer.separate import finger_joints, moving_finger_joints, separate, wrist_rooted
 from splicer.synth import make_gesture_take
 from splicer.timewarp import sample_rotations
@@ -43,7 +43,7 @@ def _check_separation(take, sep, *, finger_tol_deg):
     # body: fingers at identity, everything else untouched
     body = sep.body
     assert body.n_frames == take.n_frames and body.frame_time == take.frame_time
-    np.testing.assert_allclose(quat_angle(body.rotations[:, fj], np.array([1.0, 0, 0, 0])), 0.0, atol=1e-6)
+    np.testing.assert_allclose(quat_angle_deg(body.rotations[:, fj], np.array([1.0, 0, 0, 0])), 0.0, atol=1e-6)
     finger_cols = np.concatenate([sk.rotation_columns(j) for j in fj])
     other = np.setdiff1d(np.arange(sk.n_channels), finger_cols)
     np.testing.assert_array_equal(body.channels[:, other], take.channels[:, other])
@@ -58,14 +58,14 @@ def _check_separation(take, sep, *, finger_tol_deg):
     # the hands at the true times show the take's wrists and fingers (up to 0.5 deg noise + interpolation)
     wrists = [a.wrist for a in r.sides.values()]
     fw = fj + wrists
-    err = quat_angle(sample_rotations(sep.hands.rotations[:, fw], t), take.rotations[:, fw])
+    err = quat_angle_deg(sample_rotations(sep.hands.rotations[:, fw], t), take.rotations[:, fw])
     assert err.mean() < 1.0
     assert np.percentile(err, 99) < finger_tol_deg
     # the arms are confined: the forearm moves less in the hands than in the body
     elbow = r.sides["right"].elbow
-    spread_body = quat_angle(take.rotations[:, elbow], take.rotations[:, elbow].mean(0) / np.linalg.norm(take.rotations[:, elbow].mean(0))).mean()
+    spread_body = quat_angle_deg(take.rotations[:, elbow], take.rotations[:, elbow].mean(0) / np.linalg.norm(take.rotations[:, elbow].mean(0))).mean()
     qh = sep.hands.rotations[:, elbow]
-    spread_hands = quat_angle(qh, qh.mean(0) / np.linalg.norm(qh.mean(0))).mean()
+    spread_hands = quat_angle_deg(qh, qh.mean(0) / np.linalg.norm(qh.mean(0))).mean()
     assert spread_hands < 0.8 * spread_body
     # root turned by the drawn yaw, held nearly still
     yaw = sep.params["yaw_deg"]
@@ -109,7 +109,7 @@ def test_options(take):
     # no warp, no pull, no noise: the arms match the take exactly at the true times
     r = find_roles(take.skeleton)
     joints = [j for a in r.sides.values() for j in (a.upper_arm, a.elbow, a.wrist)]
-    err = quat_angle(sample_rotations(s.hands.rotations[:, joints], s.truth), take.rotations[:, joints])
+    err = quat_angle_deg(sample_rotations(s.hands.rotations[:, joints], s.truth), take.rotations[:, joints])
     assert err.max() < 1.0
     with pytest.raises(ValueError):
         separate(take, rng=np.random.default_rng(1), hand_only="elbow")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from splicer.model import Motion, Skeleton
-from splicer.rotations import quat_angle, quat_from_euler, quat_normalize
+from splicer.rotations import quat_angle_deg, quat_from_euler, quat_normalize
 from splicer.timewarp import resample_motion, sample_linear, sample_rotations, smooth_monotone_warp, smooth_noise
 
 
@@ -50,10 +50,10 @@ def test_sample_rotations_midpoint_equidistant_and_shortest_arc():
     q = _random_quats(rng, (2, 50))
     q[1] *= -1.0  # opposite hemisphere: same rotations, slerp must still take the short arc
     mid = sample_rotations(q, np.array([0.5]))[0]
-    a = quat_angle(mid, q[0])
-    b = quat_angle(mid, q[1])
+    a = quat_angle_deg(mid, q[0])
+    b = quat_angle_deg(mid, q[1])
     np.testing.assert_allclose(a, b, atol=1e-9)
-    np.testing.assert_allclose(a + b, quat_angle(q[0], q[1]), atol=1e-9)
+    np.testing.assert_allclose(a + b, quat_angle_deg(q[0], q[1]), atol=1e-9)
 
 
 def test_sample_clips_out_of_range():
@@ -97,8 +97,8 @@ def test_resample_half_frames():
     # positions are linear, rotations are geodesic midpoints
     np.testing.assert_allclose(r.channels[1::2, :3], 0.5 * (m.channels[:-1, :3] + m.channels[1:, :3]), atol=1e-12)
     qa, qb, qm = m.rotations[:-1], m.rotations[1:], r.rotations[1::2]
-    np.testing.assert_allclose(quat_angle(qm, qa), quat_angle(qm, qb), atol=1e-7)
-    np.testing.assert_allclose(quat_angle(qm, qa), 0.5 * quat_angle(qa, qb), atol=1e-7)
+    np.testing.assert_allclose(quat_angle_deg(qm, qa), quat_angle_deg(qm, qb), atol=1e-7)
+    np.testing.assert_allclose(quat_angle_deg(qm, qa), 0.5 * quat_angle_deg(qa, qb), atol=1e-7)
 
 
 def test_smooth_noise_deterministic_and_unit_scale():

@@ -10,9 +10,9 @@ from splicer.constraints import parse_config
 from splicer.kinematics import global_transforms
 from splicer.model import Skeleton
 from splicer.roles import detect_up_axis, find_roles
-from splicer.rotations import quat_angle, quat_mul, yaw_quat
+from splicer.rotations import quat_angle_deg, quat_mul, yaw_quat_deg
 from splicer.separate import wrist_rooted
-from splicer.splice import splice
+from splicer import splice
 from splicer.synth import make_gesture_take
 from splicer.upaxis import detect_up, restate_rest_axes
 
@@ -34,7 +34,7 @@ def test_restated_rest_axes_keep_the_world_and_stand_the_rest_skeleton_on_z(samp
     assert detect_up_axis(body.skeleton) == 1 and detect_up_axis(z.skeleton) == 2
     # the root carries the -90 deg turn about X on top of its own rotation
     back = quat_mul(z.rotations[:, 0], Q_X90[None])
-    assert quat_angle(back, body.rotations[:, 0]).max() < 1e-4  # degrees (arccos near 1 resolves ~1e-6)
+    assert quat_angle_deg(back, body.rotations[:, 0]).max() < 1e-4  # degrees (arccos near 1 resolves ~1e-6)
 
 
 def test_up_is_read_from_the_motion_not_the_rest_skeleton(sample):
@@ -55,7 +55,7 @@ def test_hand_only_files_fall_back_to_the_rest_skeleton(sample):
 
 def test_without_head_or_feet_the_root_turning_tells_the_vertical():
     take = make_gesture_take(6.0, 30.0, np.random.default_rng(5))
-    yaw = yaw_quat(np.radians(np.linspace(0.0, 120.0, take.n_frames)), 1)  # turns 120 deg about Y
+    yaw = yaw_quat_deg(np.linspace(0.0, 120.0, take.n_frames), 1)  # turns 120 deg about Y
     turned = take.with_rotations([0], quat_mul(yaw, take.rotations[:, 0])[:, None])
     z = restate_rest_axes(turned, Q_X90)
     sk = z.skeleton

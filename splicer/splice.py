@@ -22,6 +22,7 @@ from .bvh import read_bvh
 from .constraints import SpliceConfig, frame_number, read_config
 from .dtw import Constraint, band_frames
 from .errors import ConstraintError, SplicerError, SplicerWarning
+from .handonly import coincident_forearm, is_hand_only, root_referenced, wrist_source_notes
 from .markers import Markers, arm_markers
 from .merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
 from .model import Motion
@@ -253,6 +254,10 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         barm = find_roles(out.skeleton, source=bm.source, mapping=cfg.joints.get("body"), up=broles.up).sides[s]
         harm = hroles.sides[s]
         bmk = arm_markers(bm, broles.sides[s], broles.up)
+        # --- issue 9 (c-handonly): a hand-only file has no shoulder; measure the body from its root ---
+        if is_hand_only(harm) and not is_hand_only(broles.sides[s]):
+            bmk = root_referenced(bm, bmk)
+        # --- end issue 9 ---
         hmk = _align_up(arm_markers(hm, harm, hroles.up), broles.up)
         hmk_c = resample_markers(hmk, bm.fps)
         m = hmk_c.n_frames
@@ -307,8 +312,12 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
             note(f"{s} side: the body has no finger joints; grafted the hands' {len(barm.finger_joints)} finger joints under {out.skeleton.names[barm.wrist]}")
         fmap = finger_map(out.skeleton, barm, hm.skeleton, harm)
         if opts.wrist == "hands":
-            if harm.elbow is None:
+            # --- issue 9 (c-handonly): a forearm joint at the wrist's place (Leap) counts ---
+            forearm = coincident_forearm(hm.skeleton, harm)
+            if forearm is None:
                 raise SplicerError(f"{hm.source or 'hands'}: --wrist hands needs a forearm joint above the {s} wrist in the hands file")
+            for msg in wrist_source_notes(hm, harm, forearm):
+                note(msg)
             fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj)
         sub = sorted({j for g in fmap.hands for j in g})
         local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj)

@@ -52,6 +52,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--merge", choices=("timemap", "median"), default="timemap",
                    help="smooth time map with slerp (default) or the paper's median + blend")
     p.add_argument("--wrist", choices=("body", "hands"), default="body", help="wrist rotation from the body (default) or the hands take")
+    p.add_argument("--no-repair", action="store_true", help="keep dropouts/gaps of the hands capture as they are "
+                   "(default: repair them before aligning, listed in the report)")  # issue 9 (c-handonly)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary (errors still go to stderr)")
     return p
 
@@ -138,7 +140,8 @@ def main(argv=None) -> int:
             warnings.simplefilter("ignore")  # warnings are collected into the report and the summary
             result = splice(args.body, args.hands, config=args.constraints, progress=progress,
                             side=args.side, band1=args.band1, band2=args.band2, theta=args.theta,
-                            passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side)
+                            passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
+                            repair="off" if args.no_repair else "on")
         write_bvh(result.motion, out)
         if args.report:
             _write_json(result.report, Path(args.report))

@@ -23,6 +23,7 @@ from .constraints import SpliceConfig, frame_number, read_config
 from .dtw import Constraint, band_frames
 from .errors import ConstraintError, SplicerError, SplicerWarning
 from .handonly import coincident_forearm, is_hand_only, root_referenced, wrist_source_notes
+from .repair import hand_joints, repair_motion, repairs_summary
 from .markers import Markers, arm_markers
 from .merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
 from .model import Motion
@@ -58,6 +59,7 @@ class SpliceOptions:
     coarse_fps: float = 5.0  # rate of the coarse guide pass, frames per second
     coarse_above_s: float = 120.0
     hands_side: str | None = None  # side of a hand-only file whose names do not say
+    repair: str = "on"  # "on": dropouts and gaps of the hands capture repaired (and reported) first; "off"
 
 
 @dataclass(frozen=True, eq=False)
@@ -240,6 +242,13 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         raise SplicerError(
             f"no side can be spliced: body sides {sorted(broles.sides) or 'none'}, hands sides "
             f"{sorted(hroles.sides) or 'none'} (requested: {opts.side})")
+    # --- issue 9 (c-handonly): dropouts and gaps of the hand capture, repaired before aligning ---
+    hand_repairs = []
+    if opts.repair == "on":
+        hm, hand_repairs = repair_motion(hm, hand_joints(hm.skeleton, [hroles.sides[s] for s in todo]))
+        if hand_repairs:
+            note(repairs_summary(hand_repairs, hm.source or "hands"))
+    # --- end issue 9 ---
     n = bm.n_frames
     ratio = hm.fps / bm.fps
     w1 = band_frames(opts.band1, n=n, fps=bm.fps)
@@ -353,6 +362,7 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         "hands": {"path": hm.source, "frames": hm.n_frames, "fps": hm.fps},
         "options": {k: getattr(opts, k) for k in opts.__dataclass_fields__},
         "sides": report_sides,
+        "hands_repairs": [r.as_dict() for r in hand_repairs],
         "timings_s": {k: round(v, 4) for k, v in timings.items()},
         "warnings": warn_list,
     }
@@ -363,7 +373,7 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
 def _check_options(o: SpliceOptions) -> None:
     choices = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
                "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
-               "coarse": ("auto", "on", "off")}
+               "coarse": ("auto", "on", "off"), "repair": ("on", "off")}
     for k, allowed in choices.items():
         if getattr(o, k) not in allowed:
             raise SplicerError(f"{k} must be one of {', '.join(str(a) for a in allowed)}, not {getattr(o, k)!r}")

@@ -21,7 +21,9 @@ their files then carry broken frames that a splice would otherwise copy onto the
 
 and repairs them in the joint's own rotation space: slerp between the good frames around an
 interior gap (positions: linear), constant angular velocity (positions: constant velocity)
-from the two nearest good frames at the ends, for at most :data:`EXTRAPOLATE_MAX_S` seconds,
+at the ends, measured between the nearest good frame and the good frame
+:data:`VELOCITY_BASELINE_S` seconds further in (the two previous frames of seed 000's
+missing-data method, widened against capture noise), for at most :data:`EXTRAPOLATE_MAX_S` seconds,
 then held.  Only the broken frames' channels change; every repair is returned as a
 :class:`Repair` so the caller reports it (never silently).
 
@@ -44,7 +46,7 @@ from .rotations import euler_from_quat, quat_angle, quat_conj, quat_from_euler, 
 
 __all__ = ["Repair", "repair_motion", "detect_problems", "MAX_FINGER_SPEED_DEG_S", "FROZEN_MIN_S",
            "FROZEN_MIN_FRAMES", "FROZEN_EXIT_RATIO", "SPIKE_MAX_FRAMES", "EXTRAPOLATE_MAX_S", "repairs_summary",
-           "hand_joints"]
+           "hand_joints", "VELOCITY_BASELINE_S"]
 
 MAX_FINGER_SPEED_DEG_S = 3000.0  # degrees per second (see the module docstring)
 FROZEN_MIN_S = 0.1  # seconds
@@ -53,6 +55,7 @@ FROZEN_EXIT_RATIO = 3.0  # step out of a frozen stretch, in multiples of the joi
 FROZEN_MIN_MOVING = 0.1  # share of frame steps in which a joint must change to be called frozen anywhere
 SPIKE_MAX_FRAMES = 3  # frames
 EXTRAPOLATE_MAX_S = 0.1  # seconds of constant-velocity extrapolation at an end, then held
+VELOCITY_BASELINE_S = 0.05  # seconds between the two good frames the end velocity is measured over
 
 KINDS = ("zero_row", "nan", "frozen", "jump")
 
@@ -229,16 +232,18 @@ def _euler_near(e: np.ndarray, ref: np.ndarray) -> np.ndarray:
     return out
 
 
-def _fill_joint(motion: Motion, ch: np.ndarray, j: int, bad: np.ndarray, max_extra: int) -> list[tuple[int, int, str]]:
-    """Rewrite joint ``j``'s channels in the ``bad`` frames of ``ch`` (in place); returns (first, last, method) per gap."""
+def _fill_joint(motion: Motion, ch: np.ndarray, j: int, bad: np.ndarray, max_extra: int,
+                group: str) -> list[tuple[int, int, str]]:
+    """Rewrite joint ``j``'s rotation (``group="rot"``) or position (``"pos"``) channels in the
+    ``bad`` frames of ``ch`` (in place); returns (first, last, method) per gap."""
     sk = motion.skeleton
     T = ch.shape[0]
     good = np.flatnonzero(~bad)
     if good.size == 0:
         raise SplicerError(f"{motion.source or 'hands'}: joint {sk.names[j]!r} has no usable frame (every frame is "
                            "missing or broken); it cannot be repaired")
-    rcols = sk.rotation_columns(j)
-    pcols = [c for c in _joint_columns(motion, j) if c not in rcols]
+    rcols = sk.rotation_columns(j) if group == "rot" else []
+    pcols = [c for c in _joint_columns(motion, j) if c not in sk.rotation_columns(j)] if group == "pos" else []
     use_quat = len(rcols) == 3
     q = _quats(motion, np.where(np.isfinite(ch), ch, 0.0), j) if use_quat else None
     done = []
@@ -258,13 +263,14 @@ def _fill_joint(motion: Motion, ch: np.ndarray, j: int, bad: np.ndarray, max_ext
                 ch[np.ix_(frames, rcols)] = _euler_near(e, ch[a - 1, rcols])
         else:  # an end: constant velocity from the two nearest good frames, held after max_extra frames
             method = "extrapolated"
+            # velocity over a baseline of VELOCITY_BASELINE_S (at least one frame step): capture noise
+            # on a single step would otherwise be extrapolated too
+            back = int(min(max(1, round(VELOCITY_BASELINE_S * motion.fps)), good.size - 1))
             if a == 0:
-                k0 = good[0]
-                k1 = good[1] if good.size > 1 else k0
+                k0, k1 = good[0], good[back]
                 direction = -1
             else:
-                k0 = good[-1]
-                k1 = good[-2] if good.size > 1 else k0
+                k0, k1 = good[-1], good[-1 - back]
                 direction = 1
             gap = max(abs(k0 - k1), 1)
             dist = np.minimum(np.abs(frames - k0), max_extra)  # frames of extrapolation, capped
@@ -332,12 +338,24 @@ def repair_motion(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX_F
     if zero.any():
         todo |= {j for j in range(sk.n_joints) if sk.channels[j]}
     methods: dict[int, dict[tuple[int, int], str]] = {}
+    finite = np.isfinite(np.asarray(motion.channels))
     for j in sorted(todo):
-        bad = zero.copy()
-        for m in found.get(j, {}).values():
-            bad |= m
-        gaps = _fill_joint(motion, ch, j, bad, max_extra)
-        methods[j] = {(a, b): meth for a, b, meth in gaps}
+        kinds = found.get(j, {})
+        both = zero.copy()
+        for kind, m in kinds.items():
+            if kind != "nan":
+                both |= m
+        rcols = sk.rotation_columns(j)
+        pcols = [c for c in _joint_columns(motion, j) if c not in rcols]
+        methods[j] = {}
+        for group, cols in (("rot", rcols), ("pos", pcols)):
+            if not cols:
+                continue
+            # NaN repairs only the channel group that has it (a NaN position leaves the rotation as read)
+            bad = both | (~np.all(finite[:, cols], axis=1) if "nan" in kinds else False)
+            if bad.any():
+                gaps = _fill_joint(motion, ch, j, bad, max_extra, group)
+                methods[j].update({(a, b): meth for a, b, meth in gaps})
 
     def method_of(j: int, a: int, b: int) -> str:
         for (ga, gb), meth in methods.get(j, {}).items():

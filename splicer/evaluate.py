@@ -422,6 +422,10 @@ def main(argv=None) -> int:
         return 1
     table = summarize(runs)
     header = _header(takes, runs, params, args.generic_window)
+    if args.hands_form != "full" or args.mirror:  # issue 9 (c-handonly)
+        header += (f"Hands capture: {args.hands_form}-rooted hand-only file per side" if args.hands_form != "full"
+                   else "Hands capture: full skeleton") + (", mirrored through X = 0 (names kept)" if args.mirror
+                                                           else "") + ".\n"
     verdict = checks(runs)
     print(header)
     print(compact_markdown(table))

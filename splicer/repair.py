@@ -143,6 +143,14 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
             if bad.any():
                 out.setdefault(j, {})["nan"] = bad
     unusable = zero[:, None] | ~finite  # (T, C)
+    clean = np.where(unusable, 0.0, ch)
+    quats: dict[int, np.ndarray | None] = {}
+
+    def joint_quats(j: int) -> np.ndarray | None:
+        if j not in quats:
+            quats[j] = _quats(motion, clean, j)
+        return quats[j]
+
     # frozen: exact repeats, the rest of the hand moving, ending in a jump or at the end
     changes = np.zeros((T - 1, len(joints)), dtype=bool)
     for k, j in enumerate(joints):
@@ -158,7 +166,7 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         same = ~changes[:, k] & ok_rows[1:] & ok_rows[:-1]  # same[t]: frame t+1 repeats frame t
         if same.all() or not same.any():
             continue
-        q = _quats(motion, np.where(unusable, 0.0, ch), j)
+        q = joint_quats(j)
         steps = quat_angle(q[1:], q[:-1]) if q is not None else np.abs(np.diff(ch[:, cols], axis=0)).max(axis=1)
         moving = steps[~same & ok_rows[1:] & ok_rows[:-1]]
         moving = moving[moving > 0]
@@ -193,23 +201,22 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         good = np.flatnonzero(~flagged)
         if good.size < 3:
             continue
-        q = _quats(motion, np.where(unusable, 0.0, ch), j)
+        q = joint_quats(j)
         if q is None:
             continue
         qg = quat_hemisphere(q[good], axis=0)
         step = quat_angle(qg[1:], qg[:-1]) / np.maximum(np.diff(good), 1)  # degrees per frame
         spike = np.zeros(good.size, dtype=bool)
-        i = 1
-        while i < good.size - 1:
-            if step[i - 1] > lim:
-                for e in range(i, min(i + SPIKE_MAX_FRAMES, good.size - 1)):
-                    if step[e] > lim:
-                        span = good[e + 1] - good[i - 1]
-                        if quat_angle(qg[i - 1], qg[e + 1]) <= lim * span:
-                            spike[i:e + 1] = True
-                            i = e + 1  # frame e + 1 is good again; the next spike starts after it
-                        break
-            i += 1
+        next_free = 1
+        for i in (np.flatnonzero(step > lim) + 1).tolist():  # frame i is entered too fast
+            if i < next_free or i >= good.size - 1:
+                continue
+            for e in range(i, min(i + SPIKE_MAX_FRAMES, good.size - 1)):
+                if step[e] > lim:  # ... and frame e left too fast: a spike if e + 1 agrees with i - 1
+                    if quat_angle(qg[i - 1], qg[e + 1]) <= lim * (good[e + 1] - good[i - 1]):
+                        spike[i:e + 1] = True
+                        next_free = e + 2  # frame e + 1 is good again; the next spike starts after it
+                    break
         # an end frame leaving consistent neighbours too fast
         if step[0] > lim and step[1] <= lim:
             spike[0] = True

@@ -245,9 +245,11 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
     # --- issue 9 (c-handonly): dropouts and gaps of the hand capture, repaired before aligning ---
     hand_repairs = []
     if opts.repair == "on":
+        t0 = time.perf_counter()
         hm, hand_repairs = repair_motion(hm, hand_joints(hm.skeleton, [hroles.sides[s] for s in todo]))
         if hand_repairs:
             note(repairs_summary(hand_repairs, hm.source or "hands"))
+        tick("repair", t0)
     # --- end issue 9 ---
     n = bm.n_frames
     ratio = hm.fps / bm.fps

@@ -55,6 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mirror-hands", choices=("auto", "yes", "no"), default=None,  # b-handgeom
                    help="mirror the hands take (a left-handed export) so its fingers flex toward the palm: auto "
                         "(the default: when its geometry is the other hand's), yes or no")
+    p.add_argument("--no-repair", action="store_true", help="keep dropouts/gaps of the hands capture as they are "
+                   "(default: repair them before aligning, listed in the report)")  # issue 9 (c-handonly)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary (errors still go to stderr)")
     return p
 
@@ -142,7 +144,7 @@ def main(argv=None) -> int:
             result = splice(args.body, args.hands, config=args.constraints, progress=progress,
                             side=args.side, band1=args.band1, band2=args.band2, theta=args.theta,
                             passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
-                            mirror_hands=args.mirror_hands)
+                            mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on")
         write_bvh(result.motion, out)
         if args.report:
             _write_json(result.report.to_dict(), Path(args.report))

@@ -39,7 +39,7 @@ from .errors import SplicerError
 from .model import Motion
 from .roles import find_roles
 from .rotations import quat_angle_deg
-from .separate import moving_finger_joints, separate
+from .separate import hand_only_files, mirror_motion, moving_finger_joints, separate
 from .pipeline import splice
 from .timewarp import sample_rotations
 
@@ -102,8 +102,29 @@ def _no_alignment_scores() -> dict:
     return {"align_mean": np.nan, "align_max": np.nan, "within_1": np.nan, "within_3": np.nan}
 
 
+# --- hands forms (issue 9, c-handonly): the hands capture as a full skeleton, or as the
+# hand-only files real captures give (one per side), optionally mirrored like ManipNet's ---
+HANDS_FORMS = ("full", "forearm", "wrist")
+
+
+def hands_inputs(sep, roles, hands_form: str = "full", mirror: bool = False) -> dict:
+    """The hands file(s) a method aligns: ``{"both": full take}`` or ``{side: hand-only file}``.
+
+    ``hands_form``: ``"full"`` (the separated full skeleton), ``"forearm"`` (Leap-like: forearm
+    root at the wrist) or ``"wrist"`` (ManipNet-like: wrist root); ``mirror``: reflected through
+    the X = 0 plane (:func:`splicer.separate.mirror_motion`), names kept.
+    """
+    if hands_form not in HANDS_FORMS:
+        raise SplicerError(f"hands form must be one of {', '.join(HANDS_FORMS)}, not {hands_form!r}")
+    files = {"both": sep.hands} if hands_form == "full" else hand_only_files(sep.hands, roles, hands_form)
+    if mirror:
+        files = {k: mirror_motion(v, 0) for k, v in files.items()}
+    return files
+# --- end hands forms ---
+
+
 def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | None = None,
-                  splice_options: dict | None = None) -> list[dict]:
+                  splice_options: dict | None = None, hands_form: str = "full", mirror: bool = False) -> list[dict]:
     """Run and score every method on one separated take.
 
     Parameters
@@ -118,6 +139,9 @@ def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | N
         Sakoe-Chiba window of the generic DTW, body frames; full DTW when None.
     splice_options : dict, optional
         Extra :class:`~splicer.options.SpliceOptions` fields applied to every splice method.
+    hands_form, mirror
+        The form of the hands capture the methods see (see :func:`hands_inputs`); the oracle,
+        uniform scaling and the finger reference do not depend on it.
 
     Returns
     -------
@@ -134,7 +158,8 @@ def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | N
     ref = take.rotations[:, moving]
     n = take.n_frames
     body, hands, truth = sep.body, sep.hands, sep.truth
-    for mo in (body, hands):  # Euler -> quaternion conversion (cached) is not charged to the first method
+    inputs = hands_inputs(sep, roles, hands_form, mirror)
+    for mo in (body, hands, *inputs.values()):  # Euler -> quaternion conversion (cached) is not charged
         mo.rotations
     side_joints = {s: [k for k, j in enumerate(moving) if j in arm.finger_joints] for s, arm in roles.sides.items()}
     side_joints = {s: ks for s, ks in side_joints.items() if ks}
@@ -143,12 +168,19 @@ def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | N
         rec = {"method": method, "t_markers": 0.0, "t_align": 0.0, "t_merge": 0.0}
         t_start = time.perf_counter()
         if method in SPLICE_METHODS:
-            res = splice(body, hands, **{**(splice_options or {}), **SPLICE_METHODS[method]})
-            q = res.motion.rotations[:, moving]
-            frames = {s: r.hands_frame for s, r in res.sides.items()}
-            tm = res.report["timings_s"]
-            rec.update(t_markers=tm.get("markers", 0.0), t_align=tm.get("pass1", 0.0) + tm.get("pass2", 0.0),
-                       t_merge=tm.get("merge", 0.0))
+            q = np.array(ref)
+            frames = {}
+            for key, h in inputs.items():
+                side = {} if key == "both" else {"side": key}
+                res = splice(body, h, **{**(splice_options or {}), **SPLICE_METHODS[method], **side})
+                for s, r in res.sides.items():
+                    frames[s] = r.hands_frame
+                    ks = side_joints.get(s, [])
+                    q[:, ks] = res.motion.rotations[:, [moving[k] for k in ks]]
+                tm = res.report["timings_s"]
+                rec.update(t_markers=rec["t_markers"] + tm.get("markers", 0.0),
+                           t_align=rec["t_align"] + tm.get("pass1", 0.0) + tm.get("pass2", 0.0),
+                           t_merge=rec["t_merge"] + tm.get("merge", 0.0))
             rec.update(_alignment_scores(frames, truth))
         elif method == "no alignment":
             q = flat_rotations(n, len(moving))
@@ -162,8 +194,9 @@ def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | N
                 elif method == "uniform scaling":
                     frames[s] = uniform_frames(n, hands.n_frames)
                 else:  # generic DTW
-                    frames[s] = generic_dtw_frames(body, hands, roles.sides[s], roles.sides[s], roles.up,
-                                                   window=generic_window)
+                    h = inputs.get("both", inputs.get(s))
+                    h_arm = roles.sides[s] if "both" in inputs else find_roles(h.skeleton, source=h.source).sides[s]
+                    frames[s] = generic_dtw_frames(body, h, roles.sides[s], h_arm, roles.up, window=generic_window)
                 rec["t_align"] += time.perf_counter() - t0
             t0 = time.perf_counter()
             q = np.array(ref)
@@ -179,7 +212,7 @@ def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | N
 
 def evaluate(takes, *, seeds: int = 5, seed0: int = 0, params: SeparationParams | None = None,
              methods=METHODS, generic_window: int | None = None, splice_options: dict | None = None,
-             progress=None) -> pd.DataFrame:
+             progress=None, hands_form: str = "full", mirror: bool = False) -> pd.DataFrame:
     """Separate each take with ``seeds`` seeds, run every method, score it.
 
     Parameters
@@ -192,6 +225,8 @@ def evaluate(takes, *, seeds: int = 5, seed0: int = 0, params: SeparationParams 
         Separation options (ALGORITHM.md section 8 by default).
     progress : callable, optional
         ``progress(message: str)`` after each run.
+    hands_form, mirror
+        The form of the hands capture (see :func:`hands_inputs`).
 
     Returns
     -------
@@ -211,7 +246,7 @@ def evaluate(takes, *, seeds: int = 5, seed0: int = 0, params: SeparationParams 
                            warp_speed=p.warp_speed, amplitude=p.amplitude, yaw_deg=p.yaw_deg,
                            noise_deg=p.noise_deg, warp_sigma_s=p.warp_sigma_s)
             recs = evaluate_pair(take, sep, methods=methods, generic_window=generic_window,
-                                 splice_options=splice_options)
+                                 splice_options=splice_options, hands_form=hands_form, mirror=mirror)
             for r in recs:
                 rows.append({"take": name, "seed": seed, **r})
             if progress is not None:
@@ -358,6 +393,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--warp-sigma-s", type=float, default=d.warp_sigma_s, help="warp smoothness, seconds (default 1.5)")
     p.add_argument("--generic-window", type=int, default=None, help="Sakoe-Chiba window of the generic DTW, frames "
                    "(default: full DTW)")
+    p.add_argument("--hands-form", choices=HANDS_FORMS, default="full", help="hands capture as the full skeleton, "
+                   "or per side as a forearm-rooted (Leap-like) or wrist-rooted (ManipNet-like) hand file")
+    p.add_argument("--mirror", action="store_true", help="reflect the hands capture through X = 0, names kept "
+                   "(as the ManipNet files are)")
     p.add_argument("--synthetic-seconds", type=float, default=60.0, help="length of the synthetic fallback take")
     # --- scenarios of real sessions (issue 8; splicer.scenarios, splicer.scenario_eval) ---
     p.add_argument("--scenario", action="append", default=None, metavar="NAME",
@@ -388,7 +427,8 @@ def main(argv=None) -> int:
     try:
         takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds, note=lambda m: (print(m), err(m)))
         runs = evaluate(takes, seeds=args.seeds, seed0=args.seed0, params=params,
-                        generic_window=args.generic_window, progress=err)
+                        generic_window=args.generic_window, progress=err, hands_form=args.hands_form,
+                        mirror=args.mirror)
     except SplicerError as e:
         err(f"splicer-evaluate: {e}")
         return 1
@@ -397,6 +437,10 @@ def main(argv=None) -> int:
         return 1
     table = summarize(runs)
     header = _header(takes, runs, params, args.generic_window)
+    if args.hands_form != "full" or args.mirror:  # issue 9 (c-handonly)
+        header += (f"Hands capture: {args.hands_form}-rooted hand-only file per side" if args.hands_form != "full"
+                   else "Hands capture: full skeleton") + (", mirrored through X = 0 (names kept)" if args.mirror
+                                                           else "") + ".\n"
     verdict = checks(runs)
     print(header)
     print(compact_markdown(table))

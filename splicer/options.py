@@ -38,6 +38,7 @@ class SpliceOptions:
     coarse_above_s: float = 120.0
     hands_side: str | None = None  # side of a hand-only file whose names do not say
     mirror_hands: str | None = None  # "auto", "yes", "no"; None: the config file's, else auto
+    repair: str = "on"  # "on": dropouts and gaps of the hands capture repaired (and reported) first; "off"
 
     def __repr__(self) -> str:
         changed = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self)
@@ -48,7 +49,7 @@ class SpliceOptions:
 _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off"),
-            "mirror_hands": (None, "auto", "yes", "no")}
+            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off")}
 _NONNEGATIVE = ("uncovered_blend_s", "smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
                 "coarse_above_s")
 

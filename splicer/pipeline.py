@@ -153,7 +153,7 @@ class Conditioned:
     inputs : Inputs
         With the hands motion mirrored (a mirror-image export) when that was decided.
     report : dict
-        JSON-ready: ``{"handedness": {...}}``.
+        JSON-ready: ``{"handedness": {...}, "hands_repairs": [...]}``.
     """
 
     inputs: Inputs
@@ -161,7 +161,8 @@ class Conditioned:
 
 
 def condition_hands(inputs: Inputs, rig: Rig, opts: SpliceOptions, log: Log | None = None) -> Conditioned:
-    """Check the hands take before aligning: handedness (a mirror image is mirrored back, with a warning).
+    """Check the hands take before aligning: dropouts and gaps are repaired (listed in the report),
+    and a mirror-image take is mirrored back, each with a warning.
 
     Raises
     ------
@@ -169,13 +170,19 @@ def condition_hands(inputs: Inputs, rig: Rig, opts: SpliceOptions, log: Log | No
         The handedness cannot be decided in ``auto`` mode (contradicting geometry).
     """
     from .handedness import resolve_handedness
+    from .repair import hand_joints, repair_motion, repairs_summary
 
     log = log or Log()
+    hm, repairs = inputs.hands, []
+    if opts.repair == "on":  # dropouts and gaps of the hand capture, repaired before aligning (and listed)
+        hm, repairs = repair_motion(hm, hand_joints(hm.skeleton, [rig.hands.sides[s] for s in rig.sides]))
+        if repairs:
+            log.note(repairs_summary(repairs, hm.source or "hands"))
     mode = opts.mirror_hands or inputs.config.mirror_hands or "auto"
-    hm, handedness = resolve_handedness(inputs.body, rig.body, inputs.hands, rig.hands, rig.sides, mode=mode,
-                                        note=log.note)
+    hm, handedness = resolve_handedness(inputs.body, rig.body, hm, rig.hands, rig.sides, mode=mode, note=log.note)
     log.tick("checks")
-    return Conditioned(Inputs(inputs.body, hm, inputs.config), {"handedness": handedness})
+    return Conditioned(Inputs(inputs.body, hm, inputs.config),
+                       {"handedness": handedness, "hands_repairs": [r.as_dict() for r in repairs]})
 
 
 # ---------------------------------------------------------------- stage 3: markers
@@ -216,12 +223,15 @@ def _align_up(markers, up_to: int):
 def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) -> SideMarkers:
     """Virtual markers of ``side`` in both takes, the hands brought to the body's rate and up axis."""
     from .align import resample_markers
+    from .handonly import is_hand_only, root_referenced
     from .markers import arm_markers
 
     log = log or Log()
     log.progress(f"{side}: markers", 0.0)
     bm, hm = inputs.body, inputs.hands
     bmk = arm_markers(bm, rig.body.sides[side], rig.body.up)
+    if is_hand_only(rig.hands.sides[side]) and not is_hand_only(rig.body.sides[side]):
+        bmk = root_referenced(bm, bmk)  # a hand-only file has no shoulder: measure the body from its root too
     hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
     pins = pins_from_config(inputs.config, side, inputs.spaces)
     out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins)
@@ -400,6 +410,7 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
     from .rotations import quat_slerp
     from .timewarp import sample_rotations
     from .handgeom import graft_scale
+    from .handonly import coincident_forearm, wrist_source_notes
     from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
 
     log = log or Log()
@@ -416,9 +427,12 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
         extra["graft"] = {"scale": gs.scale, "method": gs.method}
     fmap = finger_map(out.skeleton, barm, hm.skeleton, harm)
     if opts.wrist == "hands":
-        if harm.elbow is None:
+        forearm = coincident_forearm(hm.skeleton, harm)  # a forearm joint at the wrist's place (Leap) counts
+        if forearm is None:
             raise SplicerError(f"{hm.source or 'hands'}: --wrist hands needs a forearm joint above the {side} "
                                "wrist in the hands file")
+        for msg in wrist_source_notes(hm, harm, forearm):
+            log.note(msg)
         fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj)
     sub = sorted({j for g in fmap.hands for j in g})
     local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj)

@@ -42,7 +42,7 @@ from .roles import find_roles
 from .rotations import quat_angle_deg
 from .scenarios import SCENARIOS, ScenarioSeparation, alignment_error_s, make_scenario, scenario
 from .separate import moving_finger_joints
-from .splice import splice
+from .pipeline import splice
 from .timewarp import sample_rotations
 
 __all__ = ["SCENARIO_METHODS", "SCENARIO_METRICS", "ranges_mask", "report_flags", "flag_scores",

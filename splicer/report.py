@@ -1,13 +1,15 @@
 """The report of a splice: a typed, frozen object with a JSON form.
 
 ``report.to_dict()`` is what ``splice --report`` writes; its keys are stable (README,
-"Report").  ``report["sides"]`` and the other top-level keys read like the dict, so
+"Report").  Both classes are read-only mappings over that dict (``report["sides"]``,
+``"uncovered" in report["sides"]["left"]``, ``report.get("up")``), so
 ``result.report["sides"]["left"]["hands_frame"]`` works.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,7 +23,7 @@ def _round_list(a, digits=4) -> list:
 
 
 @dataclass(frozen=True, eq=False)
-class SideReport:
+class SideReport(Mapping):
     """What the report says about one side.
 
     Attributes
@@ -56,13 +58,19 @@ class SideReport:
     def __getitem__(self, key):
         return self.to_dict()[key]
 
+    def __iter__(self):
+        return iter(self.to_dict())
+
+    def __len__(self) -> int:
+        return len(self.to_dict())
+
     def __repr__(self) -> str:
         return (f"SideReport(side={self.side!r}, body_frames={len(self.hands_frame)}, pins={len(self.pins)}, "
                 f"joints={len(self.joints)})")
 
 
 @dataclass(frozen=True, eq=False)
-class Report:
+class Report(Mapping):
     """The report of one splice.
 
     Attributes
@@ -108,6 +116,12 @@ class Report:
         if key == "sides":
             return self.sides
         return self.to_dict()[key]
+
+    def __iter__(self):
+        return iter(self.to_dict())
+
+    def __len__(self) -> int:
+        return len(self.to_dict())
 
     def __repr__(self) -> str:
         return (f"Report(body={self.body.get('frames')} frames @ {self.body.get('fps')} fps, "

@@ -4,11 +4,11 @@ constraint windows and the chosen path (matplotlib, Agg backend, no display need
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_atomic
 from .errors import SplicerError
 
 __all__ = ["band_image", "plot_alignment"]
@@ -111,14 +111,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             extra.axis("off")
     fig.tight_layout()
     dest = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".png", dir=dest.parent if str(dest.parent) else ".")
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=dpi, format="png")
-        os.replace(tmp, dest)
-    except OSError as e:
-        raise SplicerError(f"{dest}: cannot write the plot ({e.strerror or e})") from None
+        write_atomic(dest, lambda f: fig.savefig(f, dpi=dpi, format="png"), what="plot")
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)

@@ -22,6 +22,7 @@ from .bvh import read_bvh
 from .constraints import SpliceConfig, frame_number, read_config
 from .dtw import Constraint, band_frames
 from .errors import ConstraintError, SplicerError, SplicerWarning
+from .limits import check_takes
 from .markers import Markers, arm_markers
 from .merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
 from .model import Motion
@@ -239,6 +240,7 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         raise SplicerError(
             f"no side can be spliced: body sides {sorted(broles.sides) or 'none'}, hands sides "
             f"{sorted(hroles.sides) or 'none'} (requested: {opts.side})")
+    check_takes(bm, hm)  # issue 10: frame counts and durations the splice can handle (splicer.limits)
     n = bm.n_frames
     ratio = hm.fps / bm.fps
     w1 = band_frames(opts.band1, n=n, fps=bm.fps)

@@ -71,7 +71,7 @@ def one_line(message: str, limit: int = MESSAGE_CHARS) -> str:
     return s if len(s) <= limit else s[: limit - 1] + "…"
 
 
-def read_input(path: str | os.PathLike, *, max_bytes: int, error, what: str = "file") -> bytes:
+def read_input(path: str | os.PathLike, *, max_bytes: int, error, what: str = "file") -> bytes | bytearray:
     """The bytes of an input file, read once and never more than ``max_bytes``.
 
     Parameters
@@ -108,17 +108,15 @@ def read_input(path: str | os.PathLike, *, max_bytes: int, error, what: str = "f
             raise error(f"the file is {st.st_size:,} bytes, more than the limit of {max_bytes:,} bytes")
         if stat.S_ISFIFO(st.st_mode):  # read the pipe to its end (EOF at once if nobody writes)
             os.set_blocking(fd, True)
-        chunks = []
-        total = 0
+        buf = bytearray()
         while True:
-            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - total))
+            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - len(buf)))
             if not chunk:
                 break
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > max_bytes:
+            buf += chunk
+            if len(buf) > max_bytes:
                 raise error(f"the input is more than the limit of {max_bytes:,} bytes")
-        return b"".join(chunks)
+        return bytes(buf) if len(buf) < (1 << 20) else buf  # a bytearray avoids a copy of a large input
     except OSError as e:
         raise error(f"cannot read the file: {e.strerror or e}") from None
     finally:

@@ -29,6 +29,7 @@ import re
 import secrets
 import signal
 import stat
+import threading
 from pathlib import Path
 from typing import Callable
 
@@ -82,15 +83,37 @@ def _remove_stale(dest: Path) -> None:
 
 @contextlib.contextmanager
 def _signals_held():
-    """SIGINT, SIGTERM and SIGHUP are delivered only after the block (this thread)."""
-    if not (hasattr(signal, "pthread_sigmask") and _BLOCKED):
-        yield
-        return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, _BLOCKED)
+    """SIGINT, SIGTERM and SIGHUP arriving in the block take effect when it ends.
+
+    In the main thread their handlers are swapped for one that only records the signal (the
+    old handler is called, or the default action taken, after the block); the signals are
+    also blocked in this thread (``pthread_sigmask``).
+    """
+    pending: list[int] = []
+    swapped: dict = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in _BLOCKED:
+            try:
+                if signal.getsignal(sig) not in (signal.SIG_IGN, None):
+                    swapped[sig] = signal.signal(sig, lambda signum, frame: pending.append(signum))
+            except (ValueError, OSError):
+                pass
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, _BLOCKED) if hasattr(signal, "pthread_sigmask") else None
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        if mask is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        for sig in swapped:  # function calls: the interpreter runs handlers of signals just unblocked
+            signal.getsignal(sig)
+        for sig, handler in swapped.items():
+            signal.signal(sig, handler)
+        if pending:
+            handler = swapped.get(pending[0])
+            if callable(handler):
+                handler(pending[0], None)  # e.g. raises KeyboardInterrupt
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), pending[0])
 
 
 def _unlink_quietly(path) -> None:

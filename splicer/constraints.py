@@ -193,8 +193,9 @@ def parse_config(text: str, source: str = "<config>") -> SpliceConfig:
     if len(text) > limits.MAX_YAML_BYTES:
         raise ConstraintError(f"{source}: the constraints file has {len(text):,} characters, more than the limit "
                               f"of {limits.MAX_YAML_BYTES:,}")
-    loader = _StrictLoader(text, source)
+    loader = None
     try:
+        loader = _StrictLoader(text, source)  # the reader refuses control characters here
         root = loader.get_single_node()
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
@@ -202,7 +203,8 @@ def parse_config(text: str, source: str = "<config>") -> SpliceConfig:
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]
         raise ConstraintError(f"{source}{where}: not valid YAML ({limits.one_line(problem, 120)})") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     _scalar = _Converter(loader)
     if root is None:
         return SpliceConfig(source=source)

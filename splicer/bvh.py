@@ -29,8 +29,10 @@ every channel from quaternions (0..360 angles come back in -180..180, channel se
 re-chosen) and formats value by value in Python.  The motion block is formatted with
 ``np.savetxt`` (``%.12g``: typical files are reproduced digit for digit, computed values to
 about 1e-12 relative).  The text goes to a temporary file in the destination directory,
-moved into place with ``os.replace``: a failed write leaves no partial file and never
-clobbers an existing one.
+moved into place with ``os.replace`` (:mod:`splicer.atomic`): a failed write leaves no
+partial file and never clobbers an existing one.  Inside an open
+:class:`splicer.atomic.Transaction` (the ``splice`` command) the file only appears when every
+output of the transaction is complete.
 """
 
 from __future__ import annotations
@@ -38,14 +40,16 @@ from __future__ import annotations
 import io
 import math
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from . import limits
+from .atomic import write_atomic
 from .errors import BVHError, SplicerWarning
+from .limits import shorten
 from .model import Motion, Skeleton
 
 __all__ = ["read_bvh", "write_bvh"]
@@ -98,7 +102,8 @@ def read_bvh(path: str | os.PathLike) -> Motion:
     spath = str(path)
     lines = _read_lines(Path(path), spath)
     scan = _scan_header(lines, spath)
-    _cross_check_with_bvhio(spath, scan)
+    if limits.is_regular_file(path):  # a pipe cannot be read a second time
+        _cross_check_with_bvhio(spath, scan)
     values = _parse_motion(lines, scan, spath)
     skeleton = Skeleton(
         names=tuple(scan.names),
@@ -112,16 +117,11 @@ def read_bvh(path: str | os.PathLike) -> Motion:
 
 def _read_lines(p: Path, spath: str) -> list[str]:
     """The file's lines, line endings removed (index i is line i + 1)."""
-    if p.is_dir():
-        raise BVHError("is a directory, expected a BVH file", path=spath)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise BVHError("file not found", path=spath) from None
-    except PermissionError:
-        raise BVHError("permission denied: cannot read the file", path=spath) from None
-    except OSError as e:
-        raise BVHError(f"cannot read the file: {e.strerror or e}", path=spath) from None
+    data = limits.read_input(p, max_bytes=limits.MAX_BVH_BYTES, what="BVH file",
+                             error=lambda message: BVHError(message, path=spath))
+    n_lines = data.count(b"\n") + 1
+    if n_lines > limits.MAX_LINES:
+        raise BVHError(f"the file has {n_lines:,} lines, more than the limit of {limits.MAX_LINES:,}", path=spath)
     if not data.strip():
         raise BVHError("the file is empty, expected a BVH file starting with HIERARCHY", path=spath, line=1)
     nul = data.find(b"\x00")
@@ -181,12 +181,18 @@ class _Lines:
 
 
 def _number(tok: str, what: str, path: str, line: int) -> float:
-    try:
-        v = float(tok)
-    except ValueError:
-        v = math.nan
-    if not math.isfinite(v) or "_" in tok:
-        raise BVHError(f"{what}: expected a number, found {tok!r}", path=path, line=line)
+    """A finite number of at most ``limits.MAX_ABS_VALUE`` in magnitude, written in ASCII."""
+    v = math.nan
+    if tok.isascii() and "_" not in tok and len(tok) <= 64:
+        try:
+            v = float(tok)
+        except ValueError:
+            pass
+    if not math.isfinite(v):
+        raise BVHError(f"{what}: expected a number, found {shorten(tok)}", path=path, line=line)
+    if abs(v) > limits.MAX_ABS_VALUE:
+        raise BVHError(f"{what}: {shorten(tok)} is too large (the limit is {limits.MAX_ABS_VALUE:g} in "
+                       "magnitude)", path=path, line=line)
     return v
 
 
@@ -200,7 +206,7 @@ def _scan_header(lines: list[str], path: str) -> _Scan:
     ln, tok = src.next("ROOT <name>")
     if tok[0] != "ROOT":
         raise BVHError(f"expected ROOT <name>, found {_show(tok)}", path=path, line=ln)
-    _scan_joint(src, scan, tok, ln, parent=-1)
+    _scan_joint(src, scan, tok, ln, parent=-1, depth=1)
     ln, tok = src.next("MOTION")
     if tok == ["}"]:
         raise BVHError("unbalanced braces: '}' without a matching '{' (expected MOTION)", path=path, line=ln)
@@ -216,8 +222,14 @@ def _scan_header(lines: list[str], path: str) -> _Scan:
         raise BVHError(f"expected Frames: <count>, found {_show(tok)}", path=path, line=ln)
     count = joined[len("Frames:"):].strip()
     if not (count.isascii() and count.isdigit()):
-        raise BVHError(f"Frames: expected a non-negative whole number, found {count!r}", path=path, line=ln)
+        raise BVHError(f"Frames: expected a non-negative whole number, found {shorten(count)}", path=path, line=ln)
+    if len(count.lstrip("0")) > 9 or int(count) > limits.MAX_FRAMES:
+        raise BVHError(f"Frames: {shorten(count)} is more than the limit of {limits.MAX_FRAMES:,} frames",
+                       path=path, line=ln)
     scan.frames, scan.frames_line = int(count), ln
+    if scan.frames * scan.n_channels > limits.MAX_VALUES:
+        raise BVHError(f"Frames: {scan.frames:,} frames of {scan.n_channels} channels is more than the limit of "
+                       f"{limits.MAX_VALUES:,} values", path=path, line=ln)
 
     ln, tok = src.next("Frame Time: <seconds>")
     joined = " ".join(tok)
@@ -226,7 +238,12 @@ def _scan_header(lines: list[str], path: str) -> _Scan:
     value = joined[len("Frame "):].strip()[len("Time:"):].strip()
     ft = _number(value, "Frame Time", path, ln) if value else math.nan
     if not ft > 0:
-        raise BVHError(f"Frame Time: expected a positive number of seconds, found {value!r}", path=path, line=ln)
+        raise BVHError(f"Frame Time: expected a positive number of seconds, found {shorten(value)}",
+                       path=path, line=ln)
+    lo, hi = limits.FRAME_TIME_RANGE
+    if not lo <= ft <= hi:
+        raise BVHError(f"Frame Time: {shorten(value)} seconds is outside the accepted range {lo:g} .. {hi:g} s "
+                       f"({1 / hi:g} to {1 / lo:g} frames per second)", path=path, line=ln)
     scan.frame_time = ft
     scan.data_start = src.i
     return scan
@@ -241,21 +258,32 @@ def _scan_offset(src: _Lines, what: str) -> list[float]:
     return [_number(t, f"OFFSET of {what}", src.path, ln) for t in tok[1:]]
 
 
-def _scan_joint(src: _Lines, scan: _Scan, head: list[str], head_line: int, parent: int) -> None:
+def _scan_joint(src: _Lines, scan: _Scan, head: list[str], head_line: int, parent: int, depth: int) -> None:
     """Scan one ROOT/JOINT block whose header line ``head`` was just read (recursive)."""
     path = src.path
     if len(head) < 2:
         raise BVHError(f"{head[0]}: expected a joint name", path=path, line=head_line)
     name = " ".join(head[1:])
+    if len(name) > limits.MAX_NAME:
+        raise BVHError(f"joint name {shorten(name)} is {len(name):,} characters long (the limit is "
+                       f"{limits.MAX_NAME})", path=path, line=head_line)
+    if not name.isprintable():
+        raise BVHError(f"joint name {shorten(name)} contains an invisible or control character",
+                       path=path, line=head_line)
+    if len(scan.names) >= limits.MAX_JOINTS:
+        raise BVHError(f"more than {limits.MAX_JOINTS} joints", path=path, line=head_line)
+    if depth > limits.MAX_DEPTH:
+        raise BVHError(f"joints nested more than {limits.MAX_DEPTH} deep", path=path, line=head_line)
     if name in scan.names:
         first = scan.name_lines[scan.names.index(name)]
-        raise BVHError(f"duplicate joint name {name!r} (first defined at line {first})", path=path, line=head_line)
+        raise BVHError(f"duplicate joint name {shorten(name)} (first defined at line {first})",
+                       path=path, line=head_line)
     j = len(scan.names)
     scan.names.append(name)
     scan.name_lines.append(head_line)
     scan.parents.append(parent)
     scan.end_sites.append([math.nan] * 3)
-    what = f"joint {name!r}"
+    what = f"joint {shorten(name)}"
 
     ln, tok = src.next(f"'{{' opening {what}")
     if tok != ["{"]:
@@ -265,8 +293,9 @@ def _scan_joint(src: _Lines, scan: _Scan, head: list[str], head_line: int, paren
     ln, tok = src.next(f"CHANNELS <n> <names> of {what}")
     if tok[0] != "CHANNELS":
         raise BVHError(f"expected CHANNELS <n> <names> of {what}, found {_show(tok)}", path=path, line=ln)
-    if len(tok) < 2 or not tok[1].isdigit():
-        raise BVHError(f"CHANNELS of {what}: expected a channel count, found {_show(tok[1:2])}", path=path, line=ln)
+    if len(tok) < 2 or not (tok[1].isascii() and tok[1].isdigit() and len(tok[1]) <= 3):
+        raise BVHError(f"CHANNELS of {what}: expected a channel count (0 to 6), found {_show(tok[1:2])}",
+                       path=path, line=ln)
     n = int(tok[1])
     if len(tok) - 2 != n:
         raise BVHError(f"CHANNELS of {what}: the count says {n} but {len(tok) - 2} names follow",
@@ -275,7 +304,7 @@ def _scan_joint(src: _Lines, scan: _Scan, head: list[str], head_line: int, paren
     for c in tok[2:]:
         norm = _CHANNEL_NAMES.get(c.lower())
         if norm is None:
-            raise BVHError(f"CHANNELS of {what}: unknown channel {c!r}, expected one of "
+            raise BVHError(f"CHANNELS of {what}: unknown channel {shorten(c)}, expected one of "
                            + ", ".join(_CHANNEL_NAMES.values()), path=path, line=ln)
         if norm in chans:
             raise BVHError(f"CHANNELS of {what}: channel {norm} appears twice", path=path, line=ln)
@@ -285,7 +314,7 @@ def _scan_joint(src: _Lines, scan: _Scan, head: list[str], head_line: int, paren
     while True:
         ln, tok = src.next(f"JOINT, End Site or '}}' closing {what} (opened at line {head_line})")
         if tok[0] == "JOINT":
-            _scan_joint(src, scan, tok, ln, parent=j)
+            _scan_joint(src, scan, tok, ln, parent=j, depth=depth + 1)
         elif tok == ["End", "Site"]:
             if not math.isnan(scan.end_sites[j][0]):
                 raise BVHError(f"{what} has a second End Site", path=path, line=ln)
@@ -392,12 +421,18 @@ def _parse_motion(lines: list[str], scan: _Scan, path: str) -> np.ndarray:
                        path=path, line=row_lines[k])
     if C == 0:
         return np.zeros((T, 0))
-    try:
-        values = np.loadtxt(rows, dtype=np.float64, comments=None, ndmin=2)
-    except ValueError:
-        values = None
-    if values is not None and values.shape == (T, C) and np.isfinite(values).all():
-        return values
+    values = None
+    if all(r.isascii() for r in rows):
+        try:
+            values = np.loadtxt(rows, dtype=np.float64, comments=None, ndmin=2)
+        except ValueError:
+            values = None
+    if values is not None and values.shape == (T, C):
+        bad = ~(np.abs(values) <= limits.MAX_ABS_VALUE)  # NaN, inf and absurd values
+        if not bad.any():
+            return values
+        k, col = (int(v) for v in np.argwhere(bad)[0])
+        _number(rows[k].split()[col], f"value {col + 1} of the frame row", path, row_lines[k])
     for k, r in enumerate(rows):  # locate the offending value for the message (error path only)
         for col, t in enumerate(r.split()):
             _number(t, f"value {col + 1} of the frame row", path, row_lines[k])
@@ -442,40 +477,17 @@ def write_bvh(motion: Motion, path: str | os.PathLike) -> None:
         raise BVHError("is a directory, cannot write a BVH file there", path=spath)
     if not directory.is_dir():
         raise BVHError(f"cannot write: directory {str(directory)!r} does not exist", path=spath)
-    tmp_name = None
-    try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=directory)
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text_header)
-            if motion.n_frames and motion.skeleton.n_channels:
-                buf = io.StringIO()
-                np.savetxt(buf, motion.channels, fmt=_MOTION_FMT, delimiter=" ")
-                f.write(buf.getvalue())
-            elif motion.n_frames:
-                f.write("\n" * motion.n_frames)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp_name, _new_file_mode(dest))
-        os.replace(tmp_name, dest)
-        tmp_name = None
-    except OSError as e:
-        raise BVHError(f"cannot write the file: {e.strerror or e}", path=spath) from None
-    finally:
-        if tmp_name is not None:
-            try:
-                os.unlink(tmp_name)
-            except OSError:
-                pass
 
+    def write(f) -> None:
+        f.write(text_header.encode("utf-8"))
+        if motion.n_frames and motion.skeleton.n_channels:
+            buf = io.StringIO()
+            np.savetxt(buf, motion.channels, fmt=_MOTION_FMT, delimiter=" ")
+            f.write(buf.getvalue().encode("ascii"))
+        elif motion.n_frames:
+            f.write(b"\n" * motion.n_frames)
 
-def _new_file_mode(dest: Path) -> int:
-    """Permissions for the new file: those of the file it replaces, else 0o666 minus umask."""
-    try:
-        return dest.stat().st_mode & 0o7777
-    except OSError:
-        mask = os.umask(0o022)  # the only portable way to read the umask (sets it briefly)
-        os.umask(mask)
-        return 0o666 & ~mask
+    write_atomic(dest, write, what="file", error=lambda message: BVHError(message, path=spath))
 
 
 def _format_header(motion: Motion, path: str) -> str:

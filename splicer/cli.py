@@ -1,6 +1,11 @@
 """The ``splice`` command: parses options and calls :func:`splicer.splice`.
 
-Exit status: 0 done, 1 bad input (files, joints, constraints, output path), 2 usage.
+Exit status: 0 done, 1 bad input (files, joints, constraints, output path), 2 usage,
+130 / 143 / 129 interrupted by SIGINT / SIGTERM / SIGHUP.
+
+The outputs (``-o``, ``--report``, ``--plot``) are one transaction (:mod:`splicer.atomic`):
+all are written to temporaries and renamed only when all are complete; on an error or a
+signal the temporaries are removed and the message says what exists.
 """
 
 from __future__ import annotations
@@ -8,13 +13,16 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
-import tempfile
+import threading
 import time
 import warnings
 from pathlib import Path
 
+from .atomic import Transaction, write_atomic
 from .errors import SplicerError
+from .limits import one_line, shorten
 
 EXAMPLES = """\
 examples:
@@ -28,8 +36,15 @@ The constraints file format is in the README (section "Constraints file").
 """
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors on one line (exit 2)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {one_line(message, 300)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="splice",
         description="Splice a hand capture's finger motion onto a full-body capture: the output keeps the "
                     "body take's skeleton, frames and timing, with the fingers (and optionally the wrists) "
@@ -85,7 +100,19 @@ class _Progress:
             self.stream.flush()
 
 
+def _same_file(a, b) -> bool:
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
 def _check_output(path: Path, inputs) -> None:
+    if len(os.fsencode(path.name)) > 255:
+        raise SplicerError(f"{shorten(str(path))}: the file name is {len(path.name)} characters long; "
+                           "a file system allows at most 255 bytes")
     for i in inputs:
         if i is not None and Path(i).exists() and path.exists() and os.path.samefile(i, path):
             raise SplicerError(f"{path}: the output would overwrite an input file; choose another name")
@@ -99,16 +126,44 @@ def _check_output(path: Path, inputs) -> None:
 
 
 def _write_json(obj, path: Path) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent if str(path.parent) else ".")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(obj, f, indent=1)
-        os.replace(tmp, path)
-    except OSError as e:
-        raise SplicerError(f"{path}: cannot write the report ({e.strerror or e})") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    text = json.dumps(obj, indent=1)
+    write_atomic(path, lambda f: f.write(text.encode("utf-8")), what="report")
+
+
+def _check_distinct(outputs: list[tuple[str, str]]) -> None:
+    """Refuse two outputs naming the same file (same path, symbolic or hard link)."""
+    for k, (a, pa) in enumerate(outputs):
+        for b, pb in outputs[:k]:
+            if _same_file(pa, pb):
+                raise SplicerError(f"{pa}: {a} and {b} name the same file; give each output its own name")
+
+
+class _Signalled(BaseException):
+    """SIGTERM or SIGHUP received (raised by the handler ``main`` installs)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_signalled(signum, frame):
+    raise _Signalled(signum)
+
+
+def _install_handlers() -> dict:
+    """SIGTERM and SIGHUP raise :class:`_Signalled` (so the outputs are cleaned up) while main runs.
+
+    Only in the main thread, and only where the signal has its default action (a SIGHUP
+    ignored by ``nohup`` stays ignored).  Returns the previous handlers.
+    """
+    old = {}
+    if threading.current_thread() is not threading.main_thread():
+        return old
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None and signal.getsignal(sig) == signal.SIG_DFL:
+            old[sig] = signal.signal(sig, _raise_signalled)
+    return old
 
 
 def _summary(result, out: Path, elapsed: float) -> str:
@@ -130,40 +185,57 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
     progress = _Progress(sys.stderr, not args.quiet)
+    old_handlers = _install_handlers()
+    tx = Transaction()
     try:
         from .bvh import write_bvh
         from .pipeline import splice
 
         out = Path(args.output)
-        _check_output(out, [args.body, args.hands, args.constraints])
-        for extra, what in ((args.report, "report"), (args.plot, "plot")):
-            if extra:
-                _check_output(Path(extra), [args.body, args.hands, args.constraints, args.output])
+        outputs = [("-o", args.output)] + [(o, v) for o, v in (("--report", args.report), ("--plot", args.plot)) if v]
+        for _, o in outputs:
+            _check_output(Path(o), [args.body, args.hands, args.constraints])
+        _check_distinct(outputs)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # warnings are collected into the report and the summary
             result = splice(args.body, args.hands, config=args.constraints, progress=progress,
                             side=args.side, band1=args.band1, band2=args.band2, theta=args.theta,
                             passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
                             mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on")
-        write_bvh(result.motion, out)
-        if args.report:
-            _write_json(result.report.to_dict(), Path(args.report))
-        if args.plot:
-            from .plot import plot_alignment
+        with tx:  # every output is staged, and appears only at tx.commit()
+            write_bvh(result.motion, out)
+            if args.report:
+                _write_json(result.report.to_dict(), Path(args.report))
+            if args.plot:
+                from .plot import plot_alignment
 
-            progress("plot", 0.5)
-            plot_alignment(result, args.plot)
-        progress.close()
+                progress("plot", 0.5)
+                plot_alignment(result, args.plot)
+            progress.close()
+            tx.commit()
+        if not args.quiet:
+            print(_summary(result, out, time.perf_counter() - t0))
     except SplicerError as e:
         progress.close()
-        print(f"splice: error: {e}", file=sys.stderr)
+        print(f"splice: error: {one_line(str(e))}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
+    except MemoryError:
         progress.close()
-        print("splice: interrupted; nothing was written", file=sys.stderr)
-        return 130
-    if not args.quiet:
-        print(_summary(result, out, time.perf_counter() - t0))
+        print("splice: error: out of memory", file=sys.stderr)
+        return 1
+    except (KeyboardInterrupt, _Signalled) as e:
+        progress.close()
+        signum = e.signum if isinstance(e, _Signalled) else signal.SIGINT
+        name = signal.Signals(signum).name
+        if tx.committed:
+            what = f"after writing {', '.join(str(p) for p in tx.committed)} (complete)"
+        else:
+            what = "nothing was written"
+        print(f"splice: interrupted ({name}); {what}", file=sys.stderr)
+        return 128 + int(signum)
+    finally:
+        for sig, handler in old_handlers.items():
+            signal.signal(sig, handler)
     return 0
 
 

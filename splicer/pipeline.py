@@ -109,6 +109,7 @@ def find_rig(inputs: Inputs, opts: SpliceOptions, log: Log | None = None) -> Rig
     SplicerError
         No side can be spliced.
     """
+    from .limits import check_takes
     from .roles import FINGERS, SIDES, find_roles
     from .upaxis import detect_up
 
@@ -138,6 +139,7 @@ def find_rig(inputs: Inputs, opts: SpliceOptions, log: Log | None = None) -> Rig
         raise SplicerError(
             f"no side can be spliced: body sides {sorted(broles.sides) or 'none'}, hands sides "
             f"{sorted(hroles.sides) or 'none'} (requested: {opts.side})")
+    check_takes(bm, hm)  # frame counts and durations the splice can handle (splicer.limits)
     log.tick("roles")
     return Rig(broles, hroles, tuple(todo), up)
 

@@ -9,11 +9,11 @@ costs no more than a short one."""
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_atomic
 from .errors import SplicerError
 
 __all__ = ["band_image", "plot_alignment"]
@@ -125,14 +125,4 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             extra.axis("off")
     fig.tight_layout()
     dest = Path(path)
-    tmp = None
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".png", dir=dest.parent if str(dest.parent) else ".")
-        os.close(fd)
-        fig.savefig(tmp, dpi=dpi, format="png")
-        os.replace(tmp, dest)
-    except OSError as e:
-        raise SplicerError(f"{dest}: cannot write the plot ({e.strerror or e})") from None
-    finally:
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
+    write_atomic(dest, lambda f: fig.savefig(f, dpi=dpi, format="png"), what="plot")

@@ -52,6 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--merge", choices=("timemap", "median"), default="timemap",
                    help="smooth time map with slerp (default) or the paper's median + blend")
     p.add_argument("--wrist", choices=("body", "hands"), default="body", help="wrist rotation from the body (default) or the hands take")
+    p.add_argument("--hands-markers", metavar="C3D", help="optical markers of the hands session (C3D, TRC, CSV), "
+                   "sharing the hands BVH's timeline: the alignment uses them instead of virtual markers")
+    p.add_argument("--body-markers", metavar="C3D", help="optical markers of the body session, likewise")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary (errors still go to stderr)")
     return p
 
@@ -130,7 +133,7 @@ def main(argv=None) -> int:
         from .pipeline import splice
 
         out = Path(args.output)
-        _check_output(out, [args.body, args.hands, args.constraints])
+        _check_output(out, [args.body, args.hands, args.constraints, args.hands_markers, args.body_markers])
         for extra, what in ((args.report, "report"), (args.plot, "plot")):
             if extra:
                 _check_output(Path(extra), [args.body, args.hands, args.constraints, args.output])
@@ -138,7 +141,8 @@ def main(argv=None) -> int:
             warnings.simplefilter("ignore")  # warnings are collected into the report and the summary
             result = splice(args.body, args.hands, config=args.constraints, progress=progress,
                             side=args.side, band1=args.band1, band2=args.band2, theta=args.theta,
-                            passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side)
+                            passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
+                            hands_markers=args.hands_markers, body_markers=args.body_markers)
         write_bvh(result.motion, out)
         if args.report:
             _write_json(result.report.to_dict(), Path(args.report))

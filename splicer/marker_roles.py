@@ -39,7 +39,7 @@ from .markers import Markers
 from .trajectories import Trajectories
 
 __all__ = ["MARKER_ROLES", "MARKER_SETS", "MarkerRoles", "MarkerArm", "find_marker_roles", "marker_sides",
-           "arm_from_trajectories", "detect_marker_up", "FORMAT_UP"]
+           "arm_from_trajectories", "detect_marker_up", "FORMAT_UP", "on_frames"]
 
 MARKER_ROLES = ("p1", "p2", "p3", "p4", "shoulder")
 
@@ -339,7 +339,14 @@ def arm_from_trajectories(traj: Trajectories, side: str, *, mapping: dict | None
         notes.append(f"{traj.source}: the marker names tell no side; taken as the {side} arm")
     role_cols = sorted({c for cols in roles.roles.values() for c in cols})
     gaps = fill_gaps(traj, roles.segments, columns=role_cols, max_gap_s=max_gap_s)
-    notes += gaps.warnings
+    long = [f for f in gaps.fills if f.too_long]
+    notes += [w for w in gaps.warnings if "never seen" in w]
+    if len(long) <= 3:
+        notes += [w for w in gaps.warnings if "never seen" not in w]
+    else:
+        worst = max(long, key=lambda f: f.stop - f.start)
+        notes.append(f"{traj.source}: {len(long)} gaps of the {side} arm's markers are longer than the {max_gap_s:g} s "
+                     f"limit (longest {worst.describe()}); see gaps_filled (too_long) in the report")
     filled = gaps.trajectories.points
     never = [traj.labels[c] for c in role_cols if np.isnan(filled[:, c]).all()]
     if never:
@@ -358,3 +365,31 @@ def arm_from_trajectories(traj: Trajectories, side: str, *, mapping: dict | None
     points, shoulder = _upright(points, axis, sign), _upright(shoulder, axis, sign)
     mk = Markers(points, shoulder, np.zeros(traj.n_frames), axis, traj.fps, side)
     return MarkerArm(mk, roles, gaps, tuple(notes))
+
+
+def on_frames(markers: Markers, n_frames: int, fps: float, *, what: str = "markers") -> tuple[Markers, tuple]:
+    """Markers brought onto the frames of the take solved from them (e.g. its BVH).
+
+    The marker file and the take share a timeline: marker row 0 and take frame 0 are the
+    same instant, each file at its own rate.  Take frame ``i`` (at ``i / fps`` s) gets the
+    markers at ``i / fps`` s (linear; Gaussian anti-aliasing when the rate goes down).
+
+    Returns
+    -------
+    (Markers, notes)
+        ``n_frames`` frames at ``fps``; a take longer than the markers holds their last
+        sample (reported in ``notes`` when the durations differ by more than a frame).
+    """
+    from .align import resample_markers
+
+    notes = []
+    dur_m, dur_t = (markers.n_frames - 1) / markers.fps, (n_frames - 1) / fps
+    if abs(dur_m - dur_t) > 1.0 / min(fps, markers.fps):
+        notes.append(f"{what}: the markers last {dur_m:.2f} s but the take {dur_t:.2f} s; they are taken to start "
+                     "together" + (" (the markers' last sample is held)" if dur_t > dur_m else ""))
+    mk = resample_markers(markers, fps)
+    if mk.n_frames >= n_frames:
+        idx = np.arange(n_frames)
+    else:
+        idx = np.minimum(np.arange(n_frames), mk.n_frames - 1)
+    return Markers(mk.points[idx], mk.shoulder[idx], mk.heading[idx], mk.up, fps, mk.side), tuple(notes)

@@ -2,7 +2,8 @@
 
 For the evaluation protocol with real-marker input (issue 14): skin markers sit at fixed
 offsets from the bones (radial and ulnar styloid and a four-marker cluster on the forearm,
-four markers on the back of the hand, the acromion and three more on the shoulder girdle),
+four markers on the back of the hand, the acromion and three more on the shoulder girdle,
+carried by the upper arm's parent joint — the clavicle),
 are sampled at their own rate, get 1-2 mm of white noise and occlusion gaps.  Names follow
 the biomechanics set of :mod:`splicer.marker_roles` with a side prefix and a subject
 (``Sim:R_STYLr``).
@@ -15,7 +16,7 @@ import numpy as np
 from .kinematics import global_transforms, rest_positions
 from .model import Motion
 from .roles import Roles, find_roles
-from .rotations import quat_rotate
+from .rotations import quat_conj, quat_mul, quat_normalize, quat_rotate, quat_slerp
 from .timewarp import resample_motion
 from .trajectories import Trajectories
 
@@ -26,7 +27,7 @@ def _unit(v):
     return v / np.linalg.norm(v)
 
 
-def _layout(rest: np.ndarray, arm, up: int) -> dict:
+def _layout(rest: np.ndarray, arm, up: int, girdle: int | None = None) -> dict:
     """Marker name -> (segment joint, rest position), for one arm, at rest (world = joint frames)."""
     w, e = rest[arm.wrist], rest[arm.elbow]
     u = _unit(w - e)
@@ -58,7 +59,7 @@ def _layout(rest: np.ndarray, arm, up: int) -> dict:
     }
     if arm.upper_arm is not None:
         s = rest[arm.upper_arm]
-        girdle = arm.upper_arm
+        girdle = arm.upper_arm if girdle is None else girdle  # the acromion moves with the clavicle, not the humerus
         sk_up = np.eye(3)[up]
         out.update({
             "ACRO_tip": (girdle, s + 0.1 * length * sk_up),
@@ -125,12 +126,27 @@ def skin_markers(motion: Motion, *, rng: np.random.Generator, roles: Roles | Non
         if arm.elbow is None:
             continue
         prefix = "R_" if side == "right" else "L_"
-        layout = _layout(rest, arm, r.up)
-        joints = sorted({j for j, _ in layout.values()})
+        parent = int(motion.skeleton.parents[arm.upper_arm]) if arm.upper_arm is not None else -1
+        layout = _layout(rest, arm, r.up, parent if parent >= 0 else None)
+        joints = sorted({j for j, _ in layout.values()} | {arm.wrist})
         rot, pos = global_transforms(motion, joints)
+        # forearm markers pronate with the radius: they take the wrist's twist about the forearm axis
+        # (a skeleton without twist bones keeps it in the wrist joint), in proportion to their
+        # distance along the forearm (1 at the styloids)
+        ke, kw = joints.index(arm.elbow), joints.index(arm.wrist)
+        axis = _unit(rest[arm.wrist] - rest[arm.elbow])  # in the elbow's frame (joint frames are world at rest)
+        rel = quat_mul(quat_conj(rot[:, ke]), rot[:, kw])
+        twist = np.concatenate([rel[:, :1], (rel[:, 1:] @ axis)[:, None] * axis[None]], axis=1)
+        twist = quat_normalize(np.where(np.linalg.norm(twist, axis=1, keepdims=True) > 1e-12, twist, [1, 0, 0, 0]))
+        length = float(np.linalg.norm(rest[arm.wrist] - rest[arm.elbow]))
         for name, (j, p_rest) in layout.items():
             k = joints.index(j)
-            cols.append(pos[:, k] + quat_rotate(rot[:, k], p_rest - rest[j]))
+            local = np.broadcast_to(p_rest - rest[j], (motion.n_frames, 3))
+            if j == arm.elbow:
+                frac = float(np.clip(np.dot(p_rest - rest[j], axis) / length, 0.0, 1.0))
+                q = quat_slerp(np.broadcast_to([1.0, 0, 0, 0], twist.shape), twist, np.full(len(twist), frac))
+                local = quat_rotate(q, local)
+            cols.append(pos[:, k] + quat_rotate(rot[:, k], local))
             labels.append(f"{subject}:{prefix}{name}")
     pts = np.stack(cols, axis=1) * scale
     shift = (2 - r.up) % 3  # axes relabelled cyclically (a proper rotation): the take's up becomes +z, as in a lab

@@ -30,7 +30,8 @@ def test_biomechanics_unsided_with_subject_prefix_and_clusters():
     t = _traj([f"Daphnee:{s}" for s in names])
     r = find_marker_roles(t, "right")
     assert r.marker_set == "biomechanics" and not r.sided
-    assert r.roles["p3"] == (2, 3, 4, 5) and r.roles["p4"] == (6, 7, 8, 9) and r.roles["shoulder"] == (10,)
+    assert r.segments["hand"] == (6, 7, 8, 9)
+    assert r.roles["p3"] == (2, 3, 4, 5) and r.roles["p4"] == (6, 7) and r.roles["shoulder"] == (10,)
     assert marker_sides(t) == {}  # the names tell no side
     arm = arm_from_trajectories(t, "right", mapping={"up": "z"})
     np.testing.assert_allclose(arm.markers.points[:, 2], t.points[:, 2:6].mean(axis=1))  # cluster averaged
@@ -90,9 +91,9 @@ def test_shared_vicon_capture(shared_motions):
     role_cols = sorted({c for cols in arm.roles.roles.values() for c in cols})
     expected = {(t.labels[c], a) for c in role_cols
                 for a in np.flatnonzero(np.diff(np.concatenate([[0], t.missing[:, c].astype(int)])) == 1)}
-    assert filled == expected and len(filled) == 16
+    assert filled == expected and len(filled) == 13
     assert {f.method for f in arm.gaps.fills} == {"rigid", "cubic"}
     seen = ~t.missing[:, role_cols]
     np.testing.assert_array_equal(arm.gaps.trajectories.points[:, role_cols][seen], t.points[:, role_cols][seen])
     rep = arm.report(t)
-    assert rep["marker_set"] == "biomechanics" and len(rep["gaps_filled"]) == 16
+    assert rep["marker_set"] == "biomechanics" and len(rep["gaps_filled"]) == 13

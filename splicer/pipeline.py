@@ -205,6 +205,10 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
         from .marker_roles import arm_from_trajectories, on_frames
 
         arm = arm_from_trajectories(traj, side, mapping=inputs.config.markers.get(take))
+        if not arm.roles.sided and len(rig.sides) > 1 and inputs.config.hands_side != side:
+            log.note(f"{traj.source}: the marker names tell no side; not used for the {side} side (name the side "
+                     f"with hands_side: or under markers: in the constraints file)")
+            continue
         mk, notes = on_frames(arm.markers, motion.n_frames, motion.fps, what=f"{traj.source} ({side} side)")
         for msg in arm.notes + notes:
             log.note(msg)

@@ -36,17 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SplicerError
+from .errors import TrajectoryError
 
 __all__ = ["Trajectories", "TrajectoryError", "UNIT_METRES", "read_trajectories", "read_c3d", "read_trc",
            "read_csv", "write_c3d", "write_trc"]
 
 #: Metres per unit of every length unit the readers convert between.
 UNIT_METRES = {"mm": 1e-3, "cm": 1e-2, "dm": 1e-1, "m": 1.0, "in": 0.0254, "ft": 0.3048}
-
-
-class TrajectoryError(SplicerError):
-    """A marker file cannot be read or written, or lacks what is asked of it."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -88,3 +88,20 @@ def test_missing_roles_is_one_line(tmp_path, capsys):
     assert main([str(tmp_path / "a.c3d"), str(tmp_path / "a.c3d"), "-o", str(tmp_path / "o.c3d")]) == 1
     err = capsys.readouterr().err.strip()
     assert err.startswith("splice-markers: error:") and "Labels found: A, B" in err and "\n" not in err
+
+
+def test_unsided_markers_are_not_used_for_two_sides(session):
+    from dataclasses import replace
+
+    from splicer.constraints import SpliceConfig
+    from splicer.pipeline import splice
+
+    d, sep, hands, body = session
+    cols = [k for k, lab in enumerate(hands.labels) if lab.startswith("Sim:R_")]
+    one_arm = replace(hands, labels=tuple(hands.labels[k].replace("R_", "") for k in cols),
+                      points=hands.points[:, cols])
+    r = splice(d / "body.bvh", d / "hands.bvh", hands_markers=one_arm)
+    assert sum("tell no side; not used for the" in w for w in r.report.warnings) == 2
+    assert all("markers" not in s.extra for s in r.report.sides.values())
+    r = splice(d / "body.bvh", d / "hands.bvh", hands_markers=one_arm, config=SpliceConfig(hands_side="right"))
+    assert "markers" in r.report.sides["right"].extra and "markers" not in r.report.sides["left"].extra

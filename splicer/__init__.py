@@ -20,9 +20,12 @@ The constraints file
     :func:`read_config`, :func:`parse_config`, :class:`SpliceConfig`, :class:`Pin`.
 Skeletons
     :func:`find_roles`.
+Optical markers
+    :func:`read_trajectories` (C3D, TRC, CSV), :func:`write_c3d`, :class:`Trajectories`;
+    ``splice(..., hands_markers=..., body_markers=...)``; :func:`align_marker_files` (alignment only).
 Errors
     :class:`SplicerError` (base), :class:`BVHError`, :class:`RoleError`,
-    :class:`ConstraintError`, :class:`BandError`; warnings: :class:`SplicerWarning`.
+    :class:`ConstraintError`, :class:`BandError`, :class:`TrajectoryError`; warnings: :class:`SplicerWarning`.
 
 Example
 -------
@@ -41,7 +44,7 @@ import importlib
 __version__ = "0.2.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
-                     SplicerWarning)
+                     SplicerWarning, TrajectoryError)
 from .model import Motion, Skeleton  # noqa: E402
 
 #: public name -> module that defines it (loaded on first access)
@@ -55,10 +58,12 @@ _LAZY = {
     "read_config": ".constraints", "parse_config": ".constraints", "SpliceConfig": ".constraints",
     "Pin": ".frames",
     "find_roles": ".roles",
+    "Trajectories": ".trajectories", "read_trajectories": ".trajectories", "write_c3d": ".trajectories",
+    "align_marker_files": ".markers_cli",
 }
 
 __all__ = ["BVHError", "BandError", "ConstraintError", "Motion", "RoleError", "Skeleton", "SplicerError",
-           "SplicerWarning", "__version__", *sorted(_LAZY)]
+           "SplicerWarning", "TrajectoryError", "__version__", *sorted(_LAZY)]
 
 
 def __getattr__(name):

@@ -72,6 +72,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "(the default: when its geometry is the other hand's), yes or no")
     p.add_argument("--no-repair", action="store_true", help="keep dropouts/gaps of the hands capture as they are "
                    "(default: repair them before aligning, listed in the report)")  # issue 9 (c-handonly)
+    p.add_argument("--hands-markers", metavar="C3D", help="optical markers of the hands session (C3D, TRC, CSV), "
+                   "sharing the hands BVH's timeline: the alignment uses them instead of virtual markers")
+    p.add_argument("--body-markers", metavar="C3D", help="optical markers of the body session, likewise")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary (errors still go to stderr)")
     return p
 
@@ -194,14 +197,15 @@ def main(argv=None) -> int:
         out = Path(args.output)
         outputs = [("-o", args.output)] + [(o, v) for o, v in (("--report", args.report), ("--plot", args.plot)) if v]
         for _, o in outputs:
-            _check_output(Path(o), [args.body, args.hands, args.constraints])
+            _check_output(Path(o), [args.body, args.hands, args.constraints, args.hands_markers, args.body_markers])
         _check_distinct(outputs)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # warnings are collected into the report and the summary
             result = splice(args.body, args.hands, config=args.constraints, progress=progress,
                             side=args.side, band1=args.band1, band2=args.band2, theta=args.theta,
                             passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
-                            mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on")
+                            mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on",
+                            hands_markers=args.hands_markers, body_markers=args.body_markers)
         with tx:  # every output is staged, and appears only at tx.commit()
             write_bvh(result.motion, out)
             if args.report:

@@ -15,6 +15,8 @@ Example::
         right: {wrist: WRIST, fingers: {index: [INDEX_MCP, INDEX_PIP_FE, INDEX_DIP_FE]}}
     up: {body: y, hands: z}  # optional: vertical axes, detected when omitted
     hands_side: left         # optional: side of a hand-only file whose names do not tell it
+    markers:                 # optional: optical marker roles per take and side (splicer.marker_roles)
+      hands: {up: z, right: {p1: STYLr, p2: STYLu, p3: [LARMl, LARMm], p4: INDEX, shoulder: ACRO_tip}}
 
 Errors name the file, the line and the entry at fault.
 
@@ -41,7 +43,7 @@ from .limits import shorten
 
 __all__ = ["PairSpec", "SpliceConfig", "read_config", "parse_config", "frame_number"]
 
-_TOP_KEYS = {"tolerance", "side", "pairs", "joints", "up", "hands_side", "mirror_hands"}
+_TOP_KEYS = {"tolerance", "side", "pairs", "joints", "up", "hands_side", "mirror_hands", "markers"}
 _PAIR_KEYS = {"body", "hands", "tolerance", "side"}
 _SIDES = ("left", "right", "both")
 _TIME = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*s\s*$")
@@ -70,6 +72,7 @@ class SpliceConfig:
     hands_side: str | None = None
     source: str = "<config>"
     mirror_hands: str | None = None  # b-handgeom: "auto", "yes", "no"; None = not given
+    markers: dict = field(default_factory=dict)  # {"body"|"hands": {"up": ..., side: {role: label(s)}}}
 
 
 def frame_number(value, fps: float, *, what: str) -> int:
@@ -282,8 +285,14 @@ def parse_config(text: str, source: str = "<config>") -> SpliceConfig:
     if mirror not in (None, "auto", "yes", "no"):
         raise ConstraintError(f"{source}, line {lines['mirror_hands']}: mirror_hands must be auto, yes or no, "
                               f"not {shorten(mirror)}")
+    # markers: optical marker roles (checked in splicer.marker_roles)
+    markers = _scalar(top["markers"]) if "markers" in top else {}
+    if markers and (not isinstance(markers, dict) or set(markers) - {"body", "hands"}
+                    or any(not isinstance(v, dict) or set(v) - {"up", "left", "right"} for v in markers.values())):
+        raise ConstraintError(f"{source}, line {lines['markers']}: 'markers' takes 'body:' and/or 'hands:' mappings "
+                              "of 'up:', 'left:' and 'right:' (roles p1, p2, p3, p4, shoulder)")
     return SpliceConfig(tuple(pairs), tol, joints or {}, {k: str(v).lower() for k, v in up.items()}, hands_side, source,
-                        mirror)
+                        mirror_hands=mirror, markers=markers or {})
 
 
 _ARM_KEYS = {"wrist", "elbow", "upper_arm", "fingers"}

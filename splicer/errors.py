@@ -49,5 +49,9 @@ class BandError(SplicerError):
     """A DTW band is too narrow to connect the start and end through the constraints."""
 
 
+class TrajectoryError(SplicerError):
+    """A marker file (C3D, TRC, CSV) cannot be read or written, or lacks what is asked of it."""
+
+
 class SplicerWarning(UserWarning):
     """Something in the input was odd but could be handled (e.g. extra BVH data rows)."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -62,14 +62,21 @@ class Inputs:
     body: Motion
     hands: Motion
     config: object  # SpliceConfig
+    # --- issue 14: optical markers (Trajectories) sharing each take's timeline, or None ---
+    body_markers: object = None
+    hands_markers: object = None
 
     @property
     def spaces(self) -> FrameSpaces:
         return FrameSpaces(self.body.n_frames, self.hands.n_frames, self.body.fps, self.hands.fps)
 
 
-def load_inputs(body, hands, config=None, log: Log | None = None) -> Inputs:
-    """Read both takes (paths or :class:`~splicer.model.Motion`) and the config (path or SpliceConfig)."""
+def load_inputs(body, hands, config=None, log: Log | None = None, *, body_markers=None,
+                hands_markers=None) -> Inputs:
+    """Read both takes (paths or :class:`~splicer.model.Motion`) and the config (path or SpliceConfig).
+
+    ``body_markers``, ``hands_markers``: optional marker files (C3D, TRC, CSV; paths or
+    :class:`~splicer.trajectories.Trajectories`) captured with each take, used for the alignment."""
     from .bvh import read_bvh
     from .constraints import SpliceConfig, read_config
 
@@ -85,8 +92,18 @@ def load_inputs(body, hands, config=None, log: Log | None = None) -> Inputs:
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     cfg = read_config(config) if isinstance(config, (str, Path)) else (config or SpliceConfig())
+    # --- issue 14: optical markers ---
+    mks = []
+    for mk in (body_markers, hands_markers):
+        if isinstance(mk, (str, Path)):
+            from .trajectories import read_trajectories
+
+            mk = read_trajectories(mk)
+        for w in getattr(mk, "warnings", ()):
+            log.note(w)
+        mks.append(mk)
     log.tick("read")
-    return Inputs(bm, hm, cfg)
+    return Inputs(bm, hm, cfg, *mks)
 
 
 # ---------------------------------------------------------------- stage 2: rig
@@ -183,7 +200,7 @@ def condition_hands(inputs: Inputs, rig: Rig, opts: SpliceOptions, log: Log | No
     mode = opts.mirror_hands or inputs.config.mirror_hands or "auto"
     hm, handedness = resolve_handedness(inputs.body, rig.body, hm, rig.hands, rig.sides, mode=mode, note=log.note)
     log.tick("checks")
-    return Conditioned(Inputs(inputs.body, hm, inputs.config),
+    return Conditioned(replace(inputs, hands=hm),
                        {"handedness": handedness, "hands_repairs": [r.as_dict() for r in repairs]})
 
 
@@ -208,6 +225,7 @@ class SideMarkers:
     hands: object
     spaces: FrameSpaces
     pins: tuple
+    real: dict = field(default_factory=dict)  # issue 14: "body"/"hands" -> optical marker report
 
 
 def _align_up(markers, up_to: int):
@@ -235,8 +253,29 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     if is_hand_only(rig.hands.sides[side]) and not is_hand_only(rig.body.sides[side]):
         bmk = root_referenced(bm, bmk)  # a hand-only file has no shoulder: measure the body from its root too
     hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
+    # --- issue 14: real optical markers replace the virtual ones of the take that has them ---
+    real = {}
+    for take, traj, motion in (("body", inputs.body_markers, bm), ("hands", inputs.hands_markers, hm)):
+        if traj is None:
+            continue
+        from .marker_roles import arm_from_trajectories, on_frames
+
+        arm = arm_from_trajectories(traj, side, mapping=inputs.config.markers.get(take))
+        if not arm.roles.sided and len(rig.sides) > 1 and inputs.config.hands_side != side:
+            log.note(f"{traj.source}: the marker names tell no side; not used for the {side} side (name the side "
+                     f"with hands_side: or under markers: in the constraints file)")
+            continue
+        mk, notes = on_frames(arm.markers, motion.n_frames, motion.fps, what=f"{traj.source} ({side} side)")
+        for msg in arm.notes + notes:
+            log.note(msg)
+        real[take] = arm.report(traj)
+        if take == "body":
+            bmk = _align_up(mk, rig.body.up)
+        else:
+            hmk = _align_up(mk, rig.body.up)
+    # --- end issue 14 ---
     pins = pins_from_config(inputs.config, side, inputs.spaces)
-    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins)
+    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real)
     log.tick("markers")
     return out
 
@@ -572,8 +611,9 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, ext
     side_reports = {}
     for s, r in sides.items():
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in r.pins)
+        extra = {"markers": r.markers.real} if r.markers.real else {}  # optical markers used (file, roles, gaps)
         side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, r.joints,
-                                     {**r.extra, **_coverage_report(r, inputs.body.n_frames, log)})
+                                     {**r.extra, **extra, **_coverage_report(r, inputs.body.n_frames, log)})
     bm, hm = inputs.body, inputs.hands
     timings = dict(log.timings, total=log.total())
     return Report(__version__, {"path": bm.source, "frames": bm.n_frames, "fps": bm.fps},
@@ -585,7 +625,7 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, ext
 # ---------------------------------------------------------------- the whole job
 
 def splice(body, hands, *, config=None, options: SpliceOptions | None = None, progress=None,
-           **overrides) -> SpliceResult:
+           body_markers=None, hands_markers=None, **overrides) -> SpliceResult:
     """Splice the hands capture's finger motion onto the body capture.
 
     Parameters
@@ -599,6 +639,10 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
         All options at once; keyword ``overrides`` (fields of :class:`SpliceOptions`) win.
     progress : callable, optional
         ``progress(stage: str, fraction: float)``, called often during long stages.
+    body_markers, hands_markers : path or Trajectories, optional
+        Optical markers (C3D, TRC, CSV) captured with a take, on its timeline (row 0 at its
+        frame 0, at their own rate): the alignment uses them instead of that take's virtual
+        markers (:mod:`splicer.marker_roles`); the fingers still come from the BVH.
 
     Returns
     -------
@@ -613,7 +657,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     """
     opts = resolve_options(options, overrides)
     log = Log(progress)
-    inputs = load_inputs(body, hands, config, log)
+    inputs = load_inputs(body, hands, config, log, body_markers=body_markers, hands_markers=hands_markers)
     rig = find_rig(inputs, opts, log)
     checked = condition_hands(inputs, rig, opts, log)
     inputs, out, sides = checked.inputs, checked.inputs.body, {}

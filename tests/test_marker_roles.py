@@ -1,0 +1,99 @@
+"""Marker roles by name for common marker sets, overrides, errors; the shared Vicon capture."""
+
+import numpy as np
+import pytest
+
+from splicer.constraints import parse_config
+from splicer.errors import RoleError
+from splicer.marker_roles import arm_from_trajectories, detect_marker_up, find_marker_roles, marker_sides
+from splicer.trajectories import Trajectories
+
+
+def _traj(labels, n=6, source="m.c3d", seed=0):
+    pts = np.random.default_rng(seed).normal(size=(n, len(labels), 3))
+    return Trajectories(tuple(labels), pts, 100.0, 1, "mm", source)
+
+
+PIG = ["RWRA", "RWRB", "RFRM", "RFIN", "RSHO", "LWRA", "LWRB", "LFRM", "LFIN", "LSHO", "RELB", "C7"]
+
+
+def test_plug_in_gait_both_sides():
+    t = _traj(PIG)
+    r = find_marker_roles(t, "left")
+    assert r.marker_set == "Plug-in Gait" and r.sided
+    assert r.labels(t) == {"p1": ["LWRA"], "p2": ["LWRB"], "p3": ["LFRM"], "p4": ["LFIN"], "shoulder": ["LSHO"]}
+    assert sorted(marker_sides(t)) == ["left", "right"]
+
+
+def test_biomechanics_unsided_with_subject_prefix_and_clusters():
+    names = ["STYLr", "STYLu", "LARMl", "LARMm", "LARM_elb", "LARM_ant", "INDEX", "LASTC", "MEDH", "LATH", "ACRO_tip"]
+    t = _traj([f"Daphnee:{s}" for s in names])
+    r = find_marker_roles(t, "right")
+    assert r.marker_set == "biomechanics" and not r.sided
+    assert r.segments["hand"] == (6, 7, 8, 9)
+    assert r.roles["p3"] == (2, 3, 4, 5) and r.roles["p4"] == (6, 7) and r.roles["shoulder"] == (10,)
+    assert marker_sides(t) == {}  # the names tell no side
+    arm = arm_from_trajectories(t, "right", mapping={"up": "z"})
+    np.testing.assert_allclose(arm.markers.points[:, 2], t.points[:, 2:6].mean(axis=1))  # cluster averaged
+    np.testing.assert_allclose(arm.markers.shoulder, t.points[:, 10])
+    assert any("tell no side" in n for n in arm.notes)
+
+
+def test_optitrack_style_sided():
+    t = _traj(["RWristOut", "RWristIn", "RForeArm", "RHandOut", "RHandIn", "RShoulderTop", "LWristOut"])
+    r = find_marker_roles(t, "right")
+    assert r.marker_set == "OptiTrack/Qualisys"
+    assert r.labels(t)["p4"] == ["RHandOut", "RHandIn"]
+    assert list(marker_sides(t)) == ["right"]
+
+
+def test_mapping_overrides_and_missing_role_error():
+    t = _traj(["W1", "W2", "F", "H", "S", "X"])
+    cfg = parse_config("markers:\n  hands:\n    right: {p1: W1, p2: W2, p3: [F, X], p4: H, shoulder: S}\n")
+    r = find_marker_roles(t, "right", mapping=cfg.markers["hands"])
+    assert r.roles == {"p1": (0,), "p2": (1,), "p3": (2, 5), "p4": (3,), "shoulder": (4,)}
+    with pytest.raises(RoleError) as e:
+        find_marker_roles(t, "right")
+    msg = str(e.value)
+    assert "\n" not in msg and "no right-side marker for p1, p2, p3, p4, shoulder" in msg
+    assert "Labels found: W1, W2, F, H, S, X" in msg
+    with pytest.raises(RoleError, match="marker 'nope' is not in"):
+        find_marker_roles(t, "right", mapping={"right": {"p1": "nope"}})
+
+
+def test_up_axis_from_the_trunk_and_upright():
+    pts = np.zeros((3, 2, 3))
+    pts[:, 0] = [0, 0, 1000]  # C7 above the sacrum along +z
+    pts[:, 1] = [0, 0, 100]  # SACR
+    t = Trajectories(("C7", "SACR"), pts, 100.0, 1, "mm", "x.trc")
+    assert detect_marker_up(t)[:2] == (2, 1.0)
+    pts[:, :, [1, 2]] = -pts[:, :, [2, 1]]
+    assert detect_marker_up(Trajectories(("C7", "SACR"), pts, 100.0, 1, "mm", "x.trc"))[:2] == (1, -1.0)
+    assert detect_marker_up(Trajectories(("A",), pts[:, :1], 100.0, 1, "mm", "x.trc"))[:2] == (1, 1.0)  # TRC: y
+    labels = PIG[:5]
+    q = np.random.default_rng(1).normal(size=(4, 5, 3))
+    arm = arm_from_trajectories(Trajectories(tuple(labels), q, 50.0), "right", mapping={"up": "-y"})
+    np.testing.assert_allclose(arm.markers.points[:, 0], q[:, 0] * [1, -1, -1])  # a half turn about x
+    assert arm.markers.up == 1
+
+
+def test_shared_vicon_capture(shared_motions):
+    from splicer.trajectories import read_c3d
+
+    t = read_c3d(shared_motions / "c3d" / "markers_analogs.c3d")
+    assert (t.n_frames, t.n_markers, t.fps, t.units) == (580, 51, 100.0, "mm")
+    assert 0.005 < t.missing.mean() < 0.02
+    arm = arm_from_trajectories(t, "right")  # no configuration
+    assert arm.roles.labels(t)["p1"] == ["Daphnee:STYLr"] and arm.roles.labels(t)["shoulder"] == ["Daphnee:ACRO_tip"]
+    assert arm.roles.labels(t)["p3"] == [f"Daphnee:{s}" for s in ("LARMl", "LARMm", "LARM_elb", "LARM_ant")]
+    assert arm.markers.up == 2 and np.isfinite(arm.markers.points).all()
+    filled = {(f.label, f.start) for f in arm.gaps.fills}
+    role_cols = sorted({c for cols in arm.roles.roles.values() for c in cols})
+    expected = {(t.labels[c], a) for c in role_cols
+                for a in np.flatnonzero(np.diff(np.concatenate([[0], t.missing[:, c].astype(int)])) == 1)}
+    assert filled == expected and len(filled) == 13
+    assert {f.method for f in arm.gaps.fills} == {"rigid", "cubic"}
+    seen = ~t.missing[:, role_cols]
+    np.testing.assert_array_equal(arm.gaps.trajectories.points[:, role_cols][seen], t.points[:, role_cols][seen])
+    rep = arm.report(t)
+    assert rep["marker_set"] == "biomechanics" and len(rep["gaps_filled"]) == 13

@@ -1,0 +1,107 @@
+"""Real markers in the splice and the alignment-only ``splice-markers`` command."""
+
+import json
+
+import numpy as np
+import pytest
+
+c3d = pytest.importorskip("c3d")
+
+from splicer.bvh import write_bvh  # noqa: E402
+from splicer.marker_synth import skin_markers  # noqa: E402
+from splicer.markers_cli import main  # noqa: E402
+from splicer.separate import separate  # noqa: E402
+from splicer.synth import make_gesture_take  # noqa: E402
+from splicer.trajectories import write_c3d  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    """A separated synthetic take; each session's markers at its own rate, as C3D."""
+    d = tmp_path_factory.mktemp("markers")
+    take = make_gesture_take(8.0, 30.0, np.random.default_rng(5))
+    sep = separate(take, rng=np.random.default_rng(6))
+    rng = np.random.default_rng(7)
+    hands = skin_markers(sep.hands, rng=rng, fps=100.0, noise_mm=(0, 0), gaps_per_minute=0, source="hands.c3d")
+    body = skin_markers(sep.body, rng=rng, fps=50.0, gaps_per_minute=20.0, source="body.c3d")
+    write_c3d(hands, d / "hands.c3d")
+    write_c3d(body, d / "body.c3d")
+    write_bvh(sep.body, d / "body.bvh")
+    write_bvh(sep.hands, d / "hands.bvh")
+    return d, sep, hands, body
+
+
+def test_splice_markers_retimes_hands_onto_the_body_timeline(session, capsys):
+    d, sep, hands, body = session
+    assert main([str(d / "body.c3d"), str(d / "hands.c3d"), "--report", str(d / "r.json"),
+                 "-o", str(d / "retimed.c3d")]) == 0
+    assert (f"Aligned {hands.n_frames} hands frames at 100 Hz to {body.n_frames} body frames at 50 Hz"
+            in capsys.readouterr().out)
+    with open(d / "retimed.c3d", "rb") as f, pytest.warns(UserWarning, match="No analog"):  # by the library itself
+        r = c3d.Reader(f)
+        frames = np.stack([p[:, :3].copy() for _, p, _ in r.read_frames()])
+        assert r.point_rate == 50.0 and frames.shape[0] == body.n_frames == r.last_frame - r.first_frame + 1
+        assert [s.strip() for s in r.point_labels] == list(hands.labels)
+    rep = json.loads((d / "r.json").read_text())
+    assert sorted(rep["sides"]) == ["left", "right"]
+    for side, s in rep["sides"].items():
+        tm = np.array(s["hands_frame"])
+        assert len(tm) == body.n_frames and np.all(np.diff(tm) >= 0)
+        cols = [k for k, lab in enumerate(hands.labels) if lab.startswith(f"Sim:{side[0].upper()}_")]
+        expect = np.stack([[np.interp(tm, np.arange(hands.n_frames), hands.points[:, c, a]) for a in range(3)]
+                           for c in cols], axis=-1).transpose(1, 2, 0)
+        np.testing.assert_allclose(frames[:, cols], expect, atol=1e-3)  # float32 in the file
+        # the time map finds the true timing: body frame i at 50 Hz is body-take time i/50 s
+        truth_s = np.interp(np.arange(body.n_frames) / 50.0, np.arange(len(sep.truth)) / 30.0, sep.truth / 60.0)
+        assert np.mean(np.abs(tm / 100.0 - truth_s)) < 3.0 / 30.0  # within 3 frames of the 30 fps take
+        assert s["markers"]["body"]["gaps_filled"] and s["markers"]["body"]["marker_set"] == "biomechanics"
+
+
+def test_splice_with_hands_markers(session):
+    from splicer.evaluate import _alignment_scores
+    from splicer.pipeline import splice
+
+    d, sep, hands, body = session
+    r = splice(d / "body.bvh", d / "hands.bvh", hands_markers=d / "hands.c3d")
+    err = _alignment_scores({s: v.hands_frame for s, v in r.sides.items()}, sep.truth)
+    assert err["align_mean"] < 2.0
+    side = r.report.to_dict()["sides"]["left"]
+    assert side["markers"]["hands"]["path"].endswith("hands.c3d") and "body" not in side["markers"]
+
+
+def test_cli_flags_pass_markers(session, tmp_path):
+    from splicer.cli import main as splice_main
+
+    d, *_ = session
+    assert splice_main([str(d / "body.bvh"), str(d / "hands.bvh"), "-o", str(tmp_path / "o.bvh"), "-q",
+                        "--hands-markers", str(d / "hands.c3d"), "--body-markers", str(d / "body.c3d"),
+                        "--report", str(tmp_path / "r.json")]) == 0
+    rep = json.loads((tmp_path / "r.json").read_text())
+    assert set(rep["sides"]["right"]["markers"]) == {"body", "hands"}
+
+
+def test_missing_roles_is_one_line(tmp_path, capsys):
+    from splicer.trajectories import Trajectories
+
+    t = Trajectories(("A", "B"), np.ones((3, 2, 3)), 100.0)
+    write_c3d(t, tmp_path / "a.c3d")
+    assert main([str(tmp_path / "a.c3d"), str(tmp_path / "a.c3d"), "-o", str(tmp_path / "o.c3d")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("splice-markers: error:") and "Labels found: A, B" in err and "\n" not in err
+
+
+def test_unsided_markers_are_not_used_for_two_sides(session):
+    from dataclasses import replace
+
+    from splicer.constraints import SpliceConfig
+    from splicer.pipeline import splice
+
+    d, sep, hands, body = session
+    cols = [k for k, lab in enumerate(hands.labels) if lab.startswith("Sim:R_")]
+    one_arm = replace(hands, labels=tuple(hands.labels[k].replace("R_", "") for k in cols),
+                      points=hands.points[:, cols])
+    r = splice(d / "body.bvh", d / "hands.bvh", hands_markers=one_arm)
+    assert sum("tell no side; not used for the" in w for w in r.report.warnings) == 2
+    assert all("markers" not in s.extra for s in r.report.sides.values())
+    r = splice(d / "body.bvh", d / "hands.bvh", hands_markers=one_arm, config=SpliceConfig(hands_side="right"))
+    assert "markers" in r.report.sides["right"].extra and "markers" not in r.report.sides["left"].extra

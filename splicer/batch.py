@@ -34,6 +34,7 @@ import os
 import sys
 import tempfile
 import time
+import uuid
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -408,7 +409,8 @@ def run_batch(jobs: list[PairJob], out_dir, client, *, plot: bool = False, force
             todo.append((j, digest))
     if rows:
         note(f"{len(rows)} of {len(jobs)} pairs finished earlier; running {len(todo)}")
-    futures = {client.submit(run_pair, j, str(out), plot, d, key=f"splice-{j.name}-{d}", pure=False): j
+    # a fresh key per run: a key seen before may hand back a result Dask still holds from an earlier run
+    futures = {client.submit(run_pair, j, str(out), plot, d, key=f"splice-{j.name}-{uuid.uuid4().hex}"): j
                for j, d in todo}
     done = 0
     for fut in _as_completed(client, list(futures)):
@@ -437,7 +439,7 @@ def _cost_row(hands_sig, body_sigs, band):
 
 
 def pair_folders(body_dir, hands_dir, out_dir, client, *, fps: float = 5.0, margin: float | None = None,
-                 band: str = "30%", options: dict | None = None, note=None):
+                 max_cost: float | None = None, band: str = "60%", options: dict | None = None, note=None):
     """Pair each hands take of ``hands_dir`` with a body take of ``body_dir`` by coarse alignment cost.
 
     Writes ``pairing.md`` and ``pairing.csv`` (the cost table and the decisions) to ``out_dir``.
@@ -468,7 +470,7 @@ def pair_folders(body_dir, hands_dir, out_dir, client, *, fps: float = 5.0, marg
     hsig = [client.submit(take_signature, h, fps=fps, hands_side=hands_side, pure=False) for h in hands]
     rows = client.gather([client.submit(_cost_row, h, bsig, band, pure=False) for h in hsig])
     costs = np.array(rows, dtype=np.float64).reshape(len(hands), len(bodies))
-    decisions = decide_pairs(costs, bodies, hands, margin=margin)
+    decisions = decide_pairs(costs, bodies, hands, margin=margin, max_cost=max_cost)
     sig_errors = {s.path: s.error for s in client.gather(bsig + hsig) if s.error}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -582,6 +584,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="run finished pairs again")
     p.add_argument("--margin", type=float, default=None,
                    help="pairing: least relative cost gap between best and runner-up (default 0.15)")
+    p.add_argument("--max-cost", type=float, default=None,
+                   help="pairing: refuse a best candidate costing more than this per step (D1, 0..96)")
     p.add_argument("--pair-fps", type=float, default=5.0, help="pairing: frame rate of the coarse cost (default 5)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p
@@ -609,7 +613,7 @@ def main(argv=None) -> int:
             if folders:
                 out = Path(args.out_dir)
                 jobs, decisions, _ = pair_folders(args.body_dir, args.hands_dir, out, client, fps=args.pair_fps,
-                                                  margin=args.margin, note=note)
+                                                  margin=args.margin, max_cost=args.max_cost, note=note)
                 extra = [_row(PairJob(Path(d.hands).stem, "", d.hands, ""), "refused", error=d.reason)
                          for d in decisions if d.body is None]
             rows = run_batch(jobs, out, client, plot=args.plot, force=args.force, note=note, extra_rows=extra)

@@ -2,8 +2,8 @@
 
 For each take, once: its skeleton roles and each side's virtual markers brought down to a
 coarse rate (``fps``, 5 frames per second by default).  For each (hands, body) candidate:
-pass 1 of the splice (the phase metric D1, banded DTW around the diagonal) on those coarse
-markers, per side both takes have, and the cost **per path step** (D1 is 0..96 per step,
+pass 1 of the splice (the phase metric D1, banded DTW around the diagonal, a band of 60 %
+of the body take: a capture re-timed by 0.5x-2x needs the room) on those coarse markers, per side both takes have, and the cost **per path step** (D1 is 0..96 per step,
 so takes of different lengths compare), averaged over the sides.  The true partner
 performs the same gestures in the same order and scores far below any other take.
 
@@ -81,7 +81,7 @@ def take_signature(path, *, fps: float = 5.0, hands_side: str | None = None) -> 
         return TakeSignature(str(path), {}, 1, math.nan, str(e))
 
 
-def pair_cost(body: TakeSignature, hands: TakeSignature, *, band: str = "30%") -> float:
+def pair_cost(body: TakeSignature, hands: TakeSignature, *, band: str = "60%") -> float:
     """Mean pass-1 cost per path step over the sides both takes have (NaN: nothing to compare).
 
     Parameters
@@ -147,8 +147,8 @@ def _margin(best: float, second: float) -> float:
     return (second - best) / second if second > 0 else 0.0
 
 
-def decide_pairs(costs: np.ndarray, bodies: list[str], hands: list[str], *, margin: float = DEFAULT_MARGIN
-                 ) -> list[PairDecision]:
+def decide_pairs(costs: np.ndarray, bodies: list[str], hands: list[str], *, margin: float = DEFAULT_MARGIN,
+                 max_cost: float | None = None) -> list[PairDecision]:
     """Mutual-best pairs whose runners-up are at least ``margin`` (relative) more expensive.
 
     Parameters
@@ -159,6 +159,9 @@ def decide_pairs(costs: np.ndarray, bodies: list[str], hands: list[str], *, marg
         Names (paths) of the columns and rows.
     margin : float
         Least relative gap between the best and second-best candidate, 0..1.
+    max_cost : float, optional
+        Refuse a best candidate costing more (per step); useful when a take has no
+        runner-up (one body take only) to compare with.
 
     Returns
     -------
@@ -186,6 +189,10 @@ def decide_pairs(costs: np.ndarray, bodies: list[str], hands: list[str], *, marg
             out.append(PairDecision(h, None, best, second, -math.inf,
                                     f"contested: its best body {Path(bodies[j]).name} matches "
                                     f"{Path(hands[k]).name} better ({col_second:.3g} < {best:.3g})"))
+            continue
+        if max_cost is not None and best > max_cost:
+            out.append(PairDecision(h, None, best, second, math.nan,
+                                    f"too expensive: best {Path(bodies[j]).name} costs {best:.3g} > {max_cost:g}"))
             continue
         mg = min(_margin(best, second), _margin(best, col_second))
         second_shown = min(second, col_second)

@@ -293,8 +293,13 @@ def _row(job: PairJob, status: str, *, rep: dict | None = None, seconds: float |
             "warnings": list(rep.get("warnings") or []), "error": error, "report": report, "plot": plot}
 
 
-def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None = None) -> dict:
+def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None = None,
+             threads: int | None = None) -> dict:
     """Splice one pair, write output, plot and report (report last); never raises for bad input.
+
+    ``threads``: numba threads of the calling thread for this pair (restored after); the
+    batch runs one pair per worker with 1, so two workers on two cores do not fight over
+    the cores with the cost kernels' own threads.
 
     Returns
     -------
@@ -311,6 +316,12 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
     t0 = time.perf_counter()
     digest = digest or job_hash(job)
     rp = _report_path(out, job)
+    before = None
+    if threads is not None:
+        import numba
+
+        before = numba.get_num_threads()
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # warnings are in the report
@@ -335,6 +346,11 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
         return _row(job, "failed", seconds=time.perf_counter() - t0, error=str(e))
     except Exception as e:  # noqa: BLE001 - a bug on one pair must not stop the batch; reported in full
         return _row(job, "failed", seconds=time.perf_counter() - t0, error=f"internal error: {type(e).__name__}: {e}")
+    finally:
+        if before is not None:
+            import numba
+
+            numba.set_num_threads(before)
 
 
 # ---------------------------------------------------------------- Dask
@@ -376,7 +392,7 @@ def _as_completed(client, futures):
 
 
 def run_batch(jobs: list[PairJob], out_dir, client, *, plot: bool = False, force: bool = False,
-              note=None, extra_rows: list[dict] = ()) -> list[dict]:
+              note=None, extra_rows: list[dict] = (), threads_per_pair: int | None = 1) -> list[dict]:
     """Run every unfinished pair on ``client``; write the summary; return its rows (in ``jobs`` order).
 
     Parameters
@@ -393,6 +409,9 @@ def run_batch(jobs: list[PairJob], out_dir, client, *, plot: bool = False, force
         ``note(message)`` as pairs finish.
     extra_rows : list of dict
         Rows for pairs that were not run (e.g. refused by pairing), added to the summary.
+    threads_per_pair : int or None
+        numba threads each pair's cost kernels use (None: numba's default, all cores).
+        1 by default: the batch's parallelism is one pair per worker.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -410,8 +429,8 @@ def run_batch(jobs: list[PairJob], out_dir, client, *, plot: bool = False, force
     if rows:
         note(f"{len(rows)} of {len(jobs)} pairs finished earlier; running {len(todo)}")
     # a fresh key per run: a key seen before may hand back a result Dask still holds from an earlier run
-    futures = {client.submit(run_pair, j, str(out), plot, d, key=f"splice-{j.name}-{uuid.uuid4().hex}"): j
-               for j, d in todo}
+    futures = {client.submit(run_pair, j, str(out), plot, d, threads_per_pair,
+                             key=f"splice-{j.name}-{uuid.uuid4().hex}"): j for j, d in todo}
     done = 0
     for fut in _as_completed(client, list(futures)):
         j = futures[fut]

@@ -1,0 +1,652 @@
+"""Many pairs at once on Dask: the ``splice-batch`` command.
+
+Two ways to say what to splice:
+
+* a **manifest** (YAML or CSV) listing pairs: ``body``, ``hands``, optional ``constraints``,
+  ``output``, optional ``name`` and ``options`` (fields of :class:`~splicer.options.SpliceOptions`);
+  relative paths are relative to the manifest's folder;
+* two **folders**: every hands take is paired with a body take by a coarse alignment cost
+  (:mod:`splicer.pairing`); the cost table is written, ambiguous pairs are refused.
+
+Each pair runs as one Dask task (a local cluster on all cores by default, or an existing
+cluster by address).  Per pair: the output BVH (atomic), then its report
+``<out>/reports/<name>.json`` (atomic, last), which records a hash of the pair's manifest
+entry and of its inputs' sizes and modification times.  A pair whose output exists and
+whose report carries the same hash is finished and is not run again: killing a batch and
+starting it again redoes only the unfinished pairs.  A pair that fails (unreadable input,
+no hand found, ...) is reported in the summary and the others go on.
+
+The summary ``<out>/summary.{md,csv}`` (and ``summary.html`` with the alignment plots when
+asked) has one row per pair: status, frames, seconds, confidence (when the report has one),
+warnings.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import hashlib
+import html
+import io
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+import uuid
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import SplicerError
+
+__all__ = ["PairJob", "ManifestError", "read_manifest", "job_hash", "is_finished", "run_pair", "run_batch",
+           "pair_folders", "dask_client", "write_summary", "main"]
+
+_PAIR_KEYS = {"name", "body", "hands", "constraints", "output", "options"}
+
+
+class ManifestError(SplicerError):
+    """The manifest is malformed (the message names file and line)."""
+
+
+@dataclass(frozen=True)
+class PairJob:
+    """One pair to splice.
+
+    Attributes
+    ----------
+    name : str
+        Unique in the batch; names the report and plot.
+    body, hands : str
+        Input BVH paths (absolute).
+    output : str
+        Output BVH path (absolute).
+    constraints : str or None
+        Constraints file (absolute).
+    options : dict
+        :class:`~splicer.options.SpliceOptions` fields for this pair.
+    line : int
+        Line of the entry in the manifest (0 for pairs found by pairing).
+    """
+
+    name: str
+    body: str
+    hands: str
+    output: str
+    constraints: str | None = None
+    options: dict = field(default_factory=dict)
+    line: int = 0
+
+
+# ---------------------------------------------------------------- manifest
+
+def _check_options(opts: dict, where: str) -> dict:
+    from .options import resolve_options
+
+    try:
+        resolve_options(None, dict(opts))
+    except (TypeError, SplicerError) as e:
+        raise ManifestError(f"{where}: {e}") from None
+    return dict(opts)
+
+
+def _make_job(entry: dict, base: Path, defaults: dict, where: str, line: int) -> PairJob:
+    unknown = sorted(set(entry) - _PAIR_KEYS)
+    if unknown:
+        raise ManifestError(f"{where}: unknown key(s) {', '.join(unknown)}; expected {', '.join(sorted(_PAIR_KEYS))}")
+    for k in ("body", "hands", "output"):
+        if not entry.get(k):
+            raise ManifestError(f"{where}: '{k}' is missing")
+
+    def path(v):
+        p = Path(str(v)).expanduser()
+        return str(p if p.is_absolute() else (base / p).resolve())
+
+    opts = entry.get("options") or {}
+    if not isinstance(opts, dict):
+        raise ManifestError(f"{where}: 'options' must be a mapping of option names to values")
+    out = path(entry["output"])
+    name = str(entry.get("name") or Path(out).stem)
+    cons = entry.get("constraints")
+    return PairJob(name, path(entry["body"]), path(entry["hands"]), out, path(cons) if cons else None,
+                   _check_options({**defaults, **opts}, where), line)
+
+
+def _parse_cell_options(text: str, where: str) -> dict:
+    import yaml
+
+    opts = {}
+    for part in filter(None, (p.strip() for p in (text or "").split(";"))):
+        if "=" not in part:
+            raise ManifestError(f"{where}: options: expected key=value, found {part!r}")
+        k, v = (s.strip() for s in part.split("=", 1))
+        opts[k] = yaml.safe_load(v) if v else None
+    return opts
+
+
+def read_manifest(path) -> list[PairJob]:
+    """Read a YAML or CSV manifest.
+
+    YAML: a list of pairs, or ``{options: {...}, pairs: [...]}`` with ``options`` applied to
+    every pair.  CSV: a header with ``body,hands,output`` and optionally ``constraints``,
+    ``name``, ``options`` (``key=value; key=value``).
+
+    Raises
+    ------
+    ManifestError
+        Unreadable or malformed manifest, an unknown option, duplicate names or outputs;
+        the message names the file and line.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise ManifestError(f"{p}: manifest not found") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise ManifestError(f"{p}: cannot read the manifest ({e})") from None
+    base = p.resolve().parent
+    jobs = []
+    if p.suffix.lower() == ".csv":
+        reader = csv.DictReader(io.StringIO(text))
+        cols = set(reader.fieldnames or [])
+        missing = {"body", "hands", "output"} - cols
+        if missing:
+            raise ManifestError(f"{p}, line 1: the header lacks {', '.join(sorted(missing))} "
+                                f"(columns: body, hands, output, constraints, name, options)")
+        for row in reader:
+            line = reader.line_num
+            where = f"{p}, line {line}"
+            entry = {k: (v.strip() if isinstance(v, str) else v) for k, v in row.items() if k and v not in (None, "")}
+            if not entry:
+                continue
+            if "options" in entry:
+                entry["options"] = _parse_cell_options(entry["options"], where)
+            jobs.append(_make_job(entry, base, {}, where, line))
+    else:
+        import yaml
+
+        try:
+            root = yaml.compose(text, Loader=yaml.SafeLoader)
+        except yaml.YAMLError as e:
+            mark = getattr(e, "problem_mark", None)
+            raise ManifestError(f"{p}{f', line {mark.line + 1}' if mark else ''}: not valid YAML "
+                                f"({getattr(e, 'problem', None) or e})") from None
+        defaults = {}
+        if isinstance(root, yaml.MappingNode):
+            top = {k.value: v for k, v in root.value}
+            extra = sorted(set(top) - {"pairs", "options"})
+            if extra or "pairs" not in top:
+                raise ManifestError(f"{p}, line {root.start_mark.line + 1}: expected 'pairs:' (and optionally "
+                                    f"'options:') at the top level" + (f", found {', '.join(extra)}" if extra else ""))
+            if "options" in top:
+                defaults = yaml.safe_load(yaml.serialize(top["options"])) or {}
+                if not isinstance(defaults, dict):
+                    raise ManifestError(f"{p}, line {top['options'].start_mark.line + 1}: 'options' must be a mapping")
+            root = top["pairs"]
+        if not isinstance(root, yaml.SequenceNode):
+            line = root.start_mark.line + 1 if root is not None else 1
+            raise ManifestError(f"{p}, line {line}: expected a list of pairs (body, hands, output, ...)")
+        for node in root.value:
+            line = node.start_mark.line + 1
+            entry = yaml.safe_load(yaml.serialize(node))
+            if not isinstance(entry, dict):
+                raise ManifestError(f"{p}, line {line}: a pair is a mapping with body, hands, output")
+            jobs.append(_make_job(entry, base, defaults, f"{p}, line {line}", line))
+    _check_unique(jobs, str(p))
+    return jobs
+
+
+def _check_unique(jobs: list[PairJob], source: str) -> None:
+    for attr in ("name", "output"):
+        seen = {}
+        for j in jobs:
+            v = getattr(j, attr)
+            if v in seen:
+                raise ManifestError(f"{source}, line {j.line}: {attr} {v!r} is used twice (first at line {seen[v]})")
+            seen[v] = j.line
+    inputs = {j.body for j in jobs} | {j.hands for j in jobs} | {j.constraints for j in jobs}
+    for j in jobs:
+        if j.output in inputs:
+            raise ManifestError(f"{source}, line {j.line}: output {j.output} is an input of the batch")
+
+
+# ---------------------------------------------------------------- resume
+
+def _stamp(path: str | None):
+    if path is None:
+        return None
+    try:
+        st = os.stat(path)
+        return [st.st_size, st.st_mtime_ns]
+    except OSError:
+        return "missing"
+
+
+def job_hash(job: PairJob) -> str:
+    """Hash of the pair's entry (paths, options) and of its inputs' sizes and modification times."""
+    from . import __version__
+
+    doc = {"body": job.body, "hands": job.hands, "constraints": job.constraints, "output": job.output,
+           "options": job.options, "stamps": [_stamp(job.body), _stamp(job.hands), _stamp(job.constraints)],
+           "splicer": __version__}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+def _report_path(out_dir: Path, job: PairJob) -> Path:
+    return out_dir / "reports" / f"{job.name}.json"
+
+
+def _plot_path(out_dir: Path, job: PairJob) -> Path:
+    return out_dir / "plots" / f"{job.name}.png"
+
+
+def is_finished(job: PairJob, out_dir: Path, digest: str | None = None) -> dict | None:
+    """The stored report when the pair is finished (output present, report with the same hash), else None."""
+    rp = _report_path(Path(out_dir), job)
+    if not (Path(job.output).is_file() and rp.is_file()):
+        return None
+    try:
+        rep = json.loads(rp.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    b = rep.get("batch", {}) if isinstance(rep, dict) else {}
+    return rep if b.get("hash") == (digest or job_hash(job)) and b.get("status") == "done" else None
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+# ---------------------------------------------------------------- one pair (a Dask task)
+
+def _confidence(rep: dict):
+    """A single confidence figure from a report, when it has one (the lowest over sides)."""
+    vals = []
+    for d in [rep] + list((rep.get("sides") or {}).values()):
+        c = d.get("confidence") if isinstance(d, dict) else None
+        if isinstance(c, dict):
+            c = next((c[k] for k in ("score", "overall", "value", "mean") if isinstance(c.get(k), (int, float))), None)
+        if isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c):
+            vals.append(float(c))
+    return min(vals) if vals else None
+
+
+def _row(job: PairJob, status: str, *, rep: dict | None = None, seconds: float | None = None,
+         error: str = "", report: str = "", plot: str = "") -> dict:
+    rep = rep or {}
+    sides = rep.get("sides") or {}
+    costs = [s["pass1"]["cost"] for s in sides.values() if isinstance(s, dict) and s.get("pass1")]
+    return {"name": job.name, "status": status, "body": job.body, "hands": job.hands, "output": job.output,
+            "body_frames": (rep.get("body") or {}).get("frames"), "hands_frames": (rep.get("hands") or {}).get("frames"),
+            "sides": ",".join(sides), "pass1_cost": round(sum(costs), 3) if costs else None,
+            "confidence": _confidence(rep), "seconds": round(seconds, 2) if seconds is not None else None,
+            "warnings": list(rep.get("warnings") or []), "error": error, "report": report, "plot": plot}
+
+
+def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None = None,
+             threads: int | None = None) -> dict:
+    """Splice one pair, write output, plot and report (report last); never raises for bad input.
+
+    ``threads``: numba threads of the calling thread for this pair (restored after); the
+    batch runs one pair per worker with 1, so two workers on two cores do not fight over
+    the cores with the cost kernels' own threads.
+
+    Returns
+    -------
+    dict
+        The summary row: ``status`` ``"done"`` or ``"failed"`` (with ``error``), frames,
+        seconds, confidence, warnings.
+    """
+    import warnings
+
+    from .bvh import write_bvh
+    from .pipeline import splice
+
+    out = Path(out_dir)
+    t0 = time.perf_counter()
+    digest = digest or job_hash(job)
+    rp = _report_path(out, job)
+    before = None
+    if threads is not None:
+        import numba
+
+        before = numba.get_num_threads()
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # warnings are in the report
+            res = splice(job.body, job.hands, config=job.constraints, **job.options)
+        Path(job.output).parent.mkdir(parents=True, exist_ok=True)
+        write_bvh(res.motion, job.output)
+        pp = ""
+        if plot:
+            from .plot import plot_alignment
+
+            pth = _plot_path(out, job)
+            pth.parent.mkdir(parents=True, exist_ok=True)
+            plot_alignment(res, pth)
+            pp = str(pth)
+        rep = res.report.to_dict()
+        seconds = time.perf_counter() - t0
+        rep["batch"] = {"name": job.name, "hash": digest, "status": "done", "output": job.output,
+                        "seconds": round(seconds, 3), "plot": pp}
+        _write_atomic(rp, json.dumps(rep, indent=1))
+        return _row(job, "done", rep=rep, seconds=seconds, report=str(rp), plot=pp)
+    except SplicerError as e:
+        return _row(job, "failed", seconds=time.perf_counter() - t0, error=str(e))
+    except Exception as e:  # noqa: BLE001 - a bug on one pair must not stop the batch; reported in full
+        return _row(job, "failed", seconds=time.perf_counter() - t0, error=f"internal error: {type(e).__name__}: {e}")
+    finally:
+        if before is not None:
+            import numba
+
+            numba.set_num_threads(before)
+
+
+# ---------------------------------------------------------------- Dask
+
+@contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None, *, processes: bool = True):
+    """A ``distributed.Client``: to ``scheduler`` (an address) or to a new local cluster.
+
+    The local cluster has ``workers`` single-threaded worker processes (all cores by default)
+    and no dashboard; it is shut down on exit.
+    """
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise SplicerError("splice-batch needs Dask: pip install 'splicer[batch]' (dask, distributed)") from None
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as e:
+            raise SplicerError(f"cannot reach the Dask scheduler at {scheduler} ({e})") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    import logging
+
+    n = workers or os.cpu_count() or 1
+    with LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=None,
+                      silence_logs=logging.ERROR) as cluster, \
+            Client(cluster) as client:
+        yield client
+
+
+def _as_completed(client, futures):
+    from distributed import as_completed
+
+    return as_completed(futures)
+
+
+def run_batch(jobs: list[PairJob], out_dir, client, *, plot: bool = False, force: bool = False,
+              note=None, extra_rows: list[dict] = (), threads_per_pair: int | None = 1) -> list[dict]:
+    """Run every unfinished pair on ``client``; write the summary; return its rows (in ``jobs`` order).
+
+    Parameters
+    ----------
+    jobs : list of PairJob
+    out_dir : path
+        Receives ``reports/``, ``plots/`` and ``summary.*``.
+    client : distributed.Client
+    plot : bool
+        Write each pair's alignment plot and ``summary.html``.
+    force : bool
+        Run finished pairs again.
+    note : callable, optional
+        ``note(message)`` as pairs finish.
+    extra_rows : list of dict
+        Rows for pairs that were not run (e.g. refused by pairing), added to the summary.
+    threads_per_pair : int or None
+        numba threads each pair's cost kernels use (None: numba's default, all cores).
+        1 by default: the batch's parallelism is one pair per worker.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    note = note or (lambda msg: None)
+    rows: dict[str, dict] = {}
+    todo = []
+    for j in jobs:
+        digest = job_hash(j)
+        rep = None if force else is_finished(j, out, digest)
+        if rep is not None:
+            rows[j.name] = _row(j, "done earlier", rep=rep, seconds=rep["batch"].get("seconds"),
+                                report=str(_report_path(out, j)), plot=rep["batch"].get("plot", ""))
+        else:
+            todo.append((j, digest))
+    if rows:
+        note(f"{len(rows)} of {len(jobs)} pairs finished earlier; running {len(todo)}")
+    # a fresh key per run: a key seen before may hand back a result Dask still holds from an earlier run
+    futures = {client.submit(run_pair, j, str(out), plot, d, threads_per_pair,
+                             key=f"splice-{j.name}-{uuid.uuid4().hex}"): j for j, d in todo}
+    done = 0
+    for fut in _as_completed(client, list(futures)):
+        j = futures[fut]
+        try:
+            row = fut.result()
+        except Exception as e:  # noqa: BLE001 - a worker lost mid-pair: report, go on
+            row = _row(j, "failed", error=f"task failed: {type(e).__name__}: {e}")
+        rows[j.name] = row
+        done += 1
+        msg = row["error"] if row["status"] != "done" else f"{row['seconds']:.1f} s, {len(row['warnings'])} warning(s)"
+        note(f"[{done}/{len(todo)}] {j.name}: {row['status']} ({msg})")
+    ordered = [rows[j.name] for j in jobs] + list(extra_rows)
+    write_summary(ordered, out, html_page=plot)
+    return ordered
+
+
+# ---------------------------------------------------------------- pairing two folders
+
+def _cost_row(hands_sig, body_sigs, band):
+    from .pairing import pair_cost
+
+    if hands_sig.error:
+        return [math.nan] * len(body_sigs)
+    return [math.nan if b.error else pair_cost(b, hands_sig, band=band) for b in body_sigs]
+
+
+def pair_folders(body_dir, hands_dir, out_dir, client, *, fps: float = 5.0, margin: float | None = None,
+                 max_cost: float | None = None, band: str = "60%", options: dict | None = None, note=None):
+    """Pair each hands take of ``hands_dir`` with a body take of ``body_dir`` by coarse alignment cost.
+
+    Writes ``pairing.md`` and ``pairing.csv`` (the cost table and the decisions) to ``out_dir``.
+
+    Returns
+    -------
+    jobs : list of PairJob
+        One per accepted pair: output ``<out_dir>/<body stem>.bvh``, name the body stem.
+    decisions : list of PairDecision
+    costs : np.ndarray [shape=(n_hands, n_body)]
+        Pass-1 D1 cost per path step at ``fps``.
+    """
+    import numpy as np
+
+    from .pairing import DEFAULT_MARGIN, cost_table_markdown, decide_pairs, take_signature
+
+    margin = DEFAULT_MARGIN if margin is None else margin
+    note = note or (lambda msg: None)
+    bodies = sorted(str(p.resolve()) for p in Path(body_dir).glob("*.bvh"))
+    hands = sorted(str(p.resolve()) for p in Path(hands_dir).glob("*.bvh"))
+    for d, files, what in ((body_dir, bodies, "body"), (hands_dir, hands, "hands")):
+        if not Path(d).is_dir():
+            raise SplicerError(f"{d}: {what} folder not found")
+        if not files:
+            raise SplicerError(f"{d}: no .bvh files in the {what} folder")
+    hands_side = (options or {}).get("hands_side")
+    bsig = [client.submit(take_signature, b, fps=fps, pure=False) for b in bodies]
+    hsig = [client.submit(take_signature, h, fps=fps, hands_side=hands_side, pure=False) for h in hands]
+    rows = client.gather([client.submit(_cost_row, h, bsig, band, pure=False) for h in hsig])
+    costs = np.array(rows, dtype=np.float64).reshape(len(hands), len(bodies))
+    decisions = decide_pairs(costs, bodies, hands, margin=margin, max_cost=max_cost)
+    sig_errors = {s.path: s.error for s in client.gather(bsig + hsig) if s.error}
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    md = [f"# Pairing: {len(hands)} hands takes x {len(bodies)} body takes", "",
+          f"Cost: pass-1 phase metric D1 per path step (0..96) at {fps:g} fps, band {band}; "
+          f"a pair needs the best cost at least {100 * margin:.0f}% below the runner-up (both ways).", "",
+          cost_table_markdown(costs, bodies, hands), "", "| hands | body | cost | runner-up | margin | decision |",
+          "|---|---|---:|---:|---:|---|"]
+    for dcs in decisions:
+        md.append(f"| {Path(dcs.hands).name} | {Path(dcs.body).name if dcs.body else '-'} | {dcs.cost:.3g} | "
+                  f"{dcs.second:.3g} | {100 * dcs.margin:.0f}% | {dcs.reason} |")
+    for path, err in sig_errors.items():
+        md.append(f"\n- {Path(path).name}: {err}")
+    _write_atomic(out / "pairing.md", "\n".join(md) + "\n")
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["hands"] + [Path(b).name for b in bodies] + ["paired_body", "margin", "decision"])
+    for i, dcs in enumerate(decisions):
+        w.writerow([Path(hands[i]).name] + [f"{v:.4f}" for v in costs[i]]
+                   + [Path(dcs.body).name if dcs.body else "", f"{dcs.margin:.4f}", dcs.reason])
+    _write_atomic(out / "pairing.csv", buf.getvalue())
+    jobs = [PairJob(Path(d.body).stem, d.body, d.hands, str((out / f"{Path(d.body).stem}.bvh").resolve()),
+                    None, dict(options or {})) for d in decisions if d.body]
+    for d in decisions:
+        note(f"{Path(d.hands).name}: " + (f"-> {Path(d.body).name} (cost {d.cost:.3g}, margin {100 * d.margin:.0f}%)"
+                                          if d.body else f"refused: {d.reason}"))
+    return jobs, decisions, costs
+
+
+# ---------------------------------------------------------------- summary
+
+_COLUMNS = ["name", "status", "body_frames", "hands_frames", "sides", "pass1_cost", "confidence", "seconds",
+            "warnings", "error", "body", "hands", "output", "report"]
+
+
+def _cell(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, list):
+        return " | ".join(v)
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def write_summary(rows: list[dict], out_dir, *, html_page: bool = False) -> None:
+    """``summary.csv``, ``summary.md`` (and ``summary.html`` with plots) in ``out_dir``."""
+    out = Path(out_dir)
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(_COLUMNS)
+    for r in rows:
+        w.writerow([_cell(r.get(c)) for c in _COLUMNS])
+    _write_atomic(out / "summary.csv", buf.getvalue())
+
+    counts = {}
+    for r in rows:
+        counts[r["status"]] = counts.get(r["status"], 0) + 1
+    md = [f"# Batch summary: {len(rows)} pairs (" + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())) + ")", "",
+          "| pair | status | body frames | hands frames | sides | confidence | seconds | warnings |",
+          "|---|---|---:|---:|---|---:|---:|---|"]
+    for r in rows:
+        warn = r["error"] or ("; ".join(r["warnings"]) if r["warnings"] else "")
+        md.append(f"| {r['name']} | {r['status']} | {_cell(r['body_frames'])} | {_cell(r['hands_frames'])} | "
+                  f"{r['sides']} | {_cell(r['confidence'])} | {_cell(r['seconds'])} | {warn.replace('|', '/')} |")
+    _write_atomic(out / "summary.md", "\n".join(md) + "\n")
+    if not html_page:
+        return
+    e = html.escape
+    parts = ["<!doctype html><html><head><meta charset='utf-8'><title>splice-batch summary</title>",
+             "<style>body{font-family:sans-serif}table{border-collapse:collapse}td,th{border:1px solid #ccc;"
+             "padding:3px 6px;vertical-align:top}.failed,.refused{background:#fdd}img{max-width:900px}</style>",
+             f"</head><body><h1>{e(md[0][2:])}</h1><table><tr><th>pair</th><th>status</th><th>frames (body/hands)</th>"
+             "<th>confidence</th><th>seconds</th><th>warnings</th></tr>"]
+    for r in rows:
+        warn = [r["error"]] if r["error"] else r["warnings"]
+        parts.append(f"<tr class='{e(r['status'].split()[0])}'><td><a href='#{e(r['name'])}'>{e(r['name'])}</a></td>"
+                     f"<td>{e(r['status'])}</td><td>{e(_cell(r['body_frames']))} / {e(_cell(r['hands_frames']))}</td>"
+                     f"<td>{e(_cell(r['confidence']))}</td><td>{e(_cell(r['seconds']))}</td>"
+                     f"<td>{'<br>'.join(e(x) for x in warn)}</td></tr>")
+    parts.append("</table>")
+    for r in rows:
+        if r.get("plot"):
+            rel = os.path.relpath(r["plot"], out)
+            parts.append(f"<h2 id='{e(r['name'])}'>{e(r['name'])}</h2><p>{e(Path(r['body']).name)} + "
+                         f"{e(Path(r['hands']).name)} &rarr; {e(r['output'])}</p><img src='{e(rel)}' alt='alignment plot'>")
+    parts.append("</body></html>")
+    _write_atomic(out / "summary.html", "\n".join(parts))
+
+
+# ---------------------------------------------------------------- CLI
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="splice-batch",
+        description="Splice many body/hands pairs on Dask: from a manifest, or by pairing two folders of takes "
+                    "automatically.  Finished pairs are not run again.",
+        epilog="examples:\n  splice-batch day1.yaml -o day1_out\n  splice-batch --body-dir body/ --hands-dir hands/ -o out\n"
+               "  splice-batch day1.csv -o out --scheduler tcp://10.0.0.5:8786 --plot\n\n"
+               "manifest (YAML): pairs: [{body: b.bvh, hands: h.bvh, output: o.bvh, constraints: c.yaml, "
+               "options: {side: left}}]\nmanifest (CSV): body,hands,output,constraints,name,options (options: "
+               "key=value; key=value)", formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("manifest", nargs="?", help="YAML or CSV manifest of pairs")
+    p.add_argument("--body-dir", help="folder of body takes (pair automatically with --hands-dir)")
+    p.add_argument("--hands-dir", help="folder of hands takes")
+    p.add_argument("-o", "--out-dir", help="reports, plots, summary (and outputs of paired folders); "
+                                           "default: the manifest's folder")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (default: a local cluster)")
+    p.add_argument("--workers", type=int, help="local cluster worker processes (default: all cores)")
+    p.add_argument("--plot", action="store_true", help="alignment plot per pair and summary.html")
+    p.add_argument("--force", action="store_true", help="run finished pairs again")
+    p.add_argument("--margin", type=float, default=None,
+                   help="pairing: least relative cost gap between best and runner-up (default 0.15)")
+    p.add_argument("--max-cost", type=float, default=None,
+                   help="pairing: refuse a best candidate costing more than this per step (D1, 0..96)")
+    p.add_argument("--pair-fps", type=float, default=5.0, help="pairing: frame rate of the coarse cost (default 5)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    return p
+
+
+def main(argv=None) -> int:
+    """Exit status: 0 every pair done, 1 some pair failed or was refused (or bad input), 2 usage."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    folders = args.body_dir or args.hands_dir
+    if bool(args.manifest) == bool(folders) or (folders and not (args.body_dir and args.hands_dir)):
+        parser.error("give a manifest, or both --body-dir and --hands-dir")
+    if folders and not args.out_dir:
+        parser.error("pairing folders needs --out-dir")
+    if args.margin is not None and not 0 <= args.margin < 1:
+        parser.error("--margin must be in [0, 1)")
+    note = (lambda msg: None) if args.quiet else (lambda msg: print(msg, flush=True))
+    try:
+        if args.manifest:
+            jobs = read_manifest(args.manifest)
+            out = Path(args.out_dir) if args.out_dir else Path(args.manifest).resolve().parent
+        t0 = time.perf_counter()
+        with dask_client(args.scheduler, args.workers) as client:
+            extra = []
+            if folders:
+                out = Path(args.out_dir)
+                jobs, decisions, _ = pair_folders(args.body_dir, args.hands_dir, out, client, fps=args.pair_fps,
+                                                  margin=args.margin, max_cost=args.max_cost, note=note)
+                extra = [_row(PairJob(Path(d.hands).stem, "", d.hands, ""), "refused", error=d.reason)
+                         for d in decisions if d.body is None]
+            rows = run_batch(jobs, out, client, plot=args.plot, force=args.force, note=note, extra_rows=extra)
+    except SplicerError as e:
+        print(f"splice-batch: error: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("splice-batch: interrupted; finished pairs are kept and will not be run again", file=sys.stderr)
+        return 130
+    bad = [r for r in rows if r["status"] in ("failed", "refused")]
+    note(f"{len(rows) - len(bad)} of {len(rows)} pairs done in {time.perf_counter() - t0:.1f} s; "
+         f"summary: {out / 'summary.md'}")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -611,9 +611,9 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, ext
     side_reports = {}
     for s, r in sides.items():
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in r.pins)
-        extra = {"markers": r.markers.real} if r.markers.real else {}  # optical markers used (file, roles, gaps)
+        real = {"markers": r.markers.real} if r.markers.real else {}  # optical markers used (file, roles, gaps)
         side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, r.joints,
-                                     {**r.extra, **extra, **_coverage_report(r, inputs.body.n_frames, log)})
+                                     {**r.extra, **real, **_coverage_report(r, inputs.body.n_frames, log)})
     bm, hm = inputs.body, inputs.hands
     timings = dict(log.timings, total=log.total())
     return Report(__version__, {"path": bm.source, "frames": bm.n_frames, "fps": bm.fps},

@@ -260,3 +260,37 @@ def test_known_answer_layouts(take):
     m = _make(take, cover=(0.5, 0.5), cover_start=0.25, **STILL)
     cov = np.flatnonzero(m.covered)
     assert cov[0] == 90 and cov[-1] == 270  # (n - 1) = 360: frames 90..270
+
+
+def _runs_of(frames):
+    """Inclusive [first, last] ranges of the True runs of a boolean mask."""
+    idx = np.flatnonzero(frames)
+    if len(idx) == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.concatenate([[idx[0]], idx[cuts + 1]])
+    ends = np.concatenate([idx[cuts], [idx[-1]]])
+    return [[int(a), int(b)] for a, b in zip(starts, ends)]
+
+
+def test_report_ranges_are_scored(take, monkeypatch):
+    """The real splice's result, with the ranges a future splice reports added to its report
+    (uncovered: exactly the truly uncovered frames; low confidence: where its error > 0.1 s)."""
+    import splicer.scenario_eval as se
+
+    s = make_scenario(take, Scenario("t", cover=(0.6, 0.6), cover_start=0.2), rng=np.random.default_rng(3))
+    real = se.splice
+
+    def reporting_splice(body, hands, **kw):
+        res = real(body, hands, **kw)
+        for side, r in res.sides.items():
+            err = alignment_error_s(s, r.hands_frame)
+            res.report["sides"][side]["uncovered"] = _runs_of(~s.covered)
+            res.report["sides"][side]["low_confidence"] = _runs_of(s.covered & (err > 0.1))
+        return res
+
+    monkeypatch.setattr(se, "splice", reporting_splice)
+    rec, = evaluate_scenario_pair(take, s, methods=("splice (smooth time map)",))
+    assert rec["unc_found"] == 100.0 and rec["unc_false"] == 0.0
+    assert rec["flag_bad"] == 100.0 and rec["flag_good"] == 0.0
+    assert rec["missing"] == 0.0

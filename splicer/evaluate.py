@@ -371,6 +371,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="scenarios: also run the synthetic take (make_gesture_take, --synthetic-seconds, seed 0)")
     p.add_argument("--splice-option", action="append", default=None, metavar="KEY=VALUE",
                    help="scenarios: a SpliceOptions field for every splice method (repeatable; VALUE read as YAML)")
+    p.add_argument("--runs-csv", action="append", default=None, metavar="CSV",
+                   help="scenarios: tabulate earlier runs (OUT_runs.csv files, repeatable) instead of running")
+    p.add_argument("--dump", default=None, metavar="DIR",
+                   help="scenarios: also write DIR/<take>/<scenario>/seed<N>/{body.bvh,hands.bvh,truth.csv}")
     return p
 
 
@@ -382,7 +386,7 @@ def main(argv=None) -> int:
     def err(msg: str) -> None:
         print(msg, file=sys.stderr, flush=True)
 
-    if args.scenario or args.scenarios:
+    if args.scenario or args.scenarios or args.runs_csv:
         from .scenario_eval import scenario_cli
         return scenario_cli(args, params, err)
     try:

@@ -40,7 +40,7 @@ from .errors import SplicerError
 from .model import Motion
 from .roles import find_roles
 from .rotations import quat_angle
-from .scenarios import SCENARIOS, ScenarioSeparation, alignment_error_s, make_scenario, scenario
+from .scenarios import SCENARIOS, ScenarioSeparation, alignment_error_s, make_scenario, scenario, write_scenario
 from .separate import moving_finger_joints
 from .splice import splice
 from .timewarp import sample_rotations
@@ -256,9 +256,13 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
     return records
 
 
+def _take_name(take: Motion) -> str:
+    return Path(take.source).name if take.source and not take.source.startswith("synth") else "synthetic"
+
+
 def evaluate_scenarios(takes, scenarios=SCENARIOS, *, seeds=range(100, 105), methods=SCENARIO_METHODS,
                        splice_options: dict | None = None, generic_window: int | None = None,
-                       progress=None, **separation) -> pd.DataFrame:
+                       progress=None, dump=None, **separation) -> pd.DataFrame:
     """Every take x scenario x seed x method, scored.
 
     Parameters
@@ -267,6 +271,8 @@ def evaluate_scenarios(takes, scenarios=SCENARIOS, *, seeds=range(100, 105), met
     scenarios : sequence of str
         Names for :func:`splicer.scenarios.scenario`.
     seeds : iterable of int
+    dump : path, optional
+        Also write each separation to ``dump/<take>/<scenario>/seed<N>/`` (:func:`splicer.scenarios.write_scenario`).
     separation
         Passed to :func:`splicer.scenarios.make_scenario` (``amplitude``, ``yaw_deg``, ...).
 
@@ -282,10 +288,12 @@ def evaluate_scenarios(takes, scenarios=SCENARIOS, *, seeds=range(100, 105), met
     for name in scenarios:
         sc = scenario(name)
         for take in takes:
-            tname = Path(take.source).name if take.source and not take.source.startswith("synth") else "synthetic"
+            tname = _take_name(take)
             for seed in seeds:
                 t0 = time.perf_counter()
                 sep = make_scenario(take, sc, rng=np.random.default_rng(seed), **separation)
+                if dump is not None:
+                    write_scenario(sep, Path(dump) / Path(tname).stem / sc.name / f"seed{seed}")
                 recs = evaluate_scenario_pair(take, sep, methods=methods, splice_options=splice_options,
                                               generic_window=generic_window)
                 for r in recs:
@@ -382,21 +390,34 @@ def scenario_cli(args, params, err) -> int:
     try:
         for nm in names:
             scenario(nm)
-        takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds, note=lambda m: (print(m), err(m)))
-        if args.synthetic and not all(t.source and t.source.startswith("synth") for t in takes):
-            takes.append(make_gesture_take(args.synthetic_seconds, 30.0, np.random.default_rng(0)))
-        runs = evaluate_scenarios(takes, names, seeds=range(args.seed0, args.seed0 + args.seeds),
-                                  splice_options=opts or None, generic_window=args.generic_window, progress=err, amplitude=params.amplitude,
-                                  yaw_deg=params.yaw_deg, noise_deg=params.noise_deg,
-                                  warp_sigma_s=params.warp_sigma_s)
+        if args.runs_csv:
+            missing = [f for f in args.runs_csv if not Path(f).is_file()]
+            if missing:
+                raise SplicerError(f"{missing[0]}: no such file")
+            runs = pd.concat([pd.read_csv(f) for f in args.runs_csv], ignore_index=True)
+            if names:
+                runs = runs[runs["scenario"].isin([scenario(nm).name for nm in names])]
+            takes_txt = ", ".join(dict.fromkeys(runs["take"])) + f" (runs read from {', '.join(args.runs_csv)})"
+        else:
+            takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds,
+                                  note=lambda m: (print(m), err(m)))
+            if args.synthetic and not all(t.source and t.source.startswith("synth") for t in takes):
+                takes.append(make_gesture_take(args.synthetic_seconds, 30.0, np.random.default_rng(0)))
+            runs = evaluate_scenarios(takes, names, seeds=range(args.seed0, args.seed0 + args.seeds),
+                                      splice_options=opts or None, generic_window=args.generic_window,
+                                      progress=err, dump=args.dump, amplitude=params.amplitude,
+                                      yaw_deg=params.yaw_deg, noise_deg=params.noise_deg,
+                                      warp_sigma_s=params.warp_sigma_s)
+            takes_txt = ", ".join(f"{_take_name(t)} ({t.n_frames} frames @ {t.fps:g} fps)" for t in takes)
     except (SplicerError, ValueError, TypeError) as e:
         err(f"splicer-evaluate: {e}")
         return 1
+    if runs.empty:
+        err("splicer-evaluate: no runs to tabulate")
+        return 1
     table = summarize_scenarios(runs)
-    takes_txt = ", ".join(f"{Path(t.source).name if t.source and not t.source.startswith('synth') else 'synthetic'} "
-                          f"({t.n_frames} frames @ {t.fps:g} fps)" for t in takes)
     seeds = sorted(set(runs["seed"]))
-    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Splice options: {opts or 'defaults'}. Cells: mean over runs (worst run). "
+    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Splice options: {opts or ('as recorded' if args.runs_csv else 'defaults')}. Cells: mean over runs (worst run). "
               "Alignment error in seconds of the performance (frames = seconds x body fps) over body frames "
               "the hands cover; finger error in degrees over covered frames.\n")
     parts = [header]

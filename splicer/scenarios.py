@@ -63,7 +63,7 @@ from .separate import _mean_rotation, confine_capture, finger_joints, warp_time_
 from .timewarp import resample_motion, smooth_noise
 
 __all__ = ["Scenario", "COMPONENTS", "SCENARIOS", "scenario", "ScenarioSeparation", "make_scenario",
-           "invert_time", "hands_take_time", "alignment_error_s"]
+           "invert_time", "hands_take_time", "alignment_error_s", "write_scenario"]
 
 
 @dataclass(frozen=True)
@@ -479,3 +479,32 @@ def make_scenario(take: Motion, sc: Scenario | str, *, rng: np.random.Generator,
     params["pause_windows"] = windows
     params["finger_joints"] = fingers
     return ScenarioSeparation(body, hands, truth, b, hands_time, (g0, g1), fps, sc, params)
+
+
+def write_scenario(sep: ScenarioSeparation, folder) -> list:
+    """Write ``body.bvh``, ``hands.bvh`` and ``truth.csv`` into ``folder`` (created), to try
+    ``splice body.bvh hands.bvh`` on a scenario by hand.
+
+    ``truth.csv`` has one row per body frame: ``body_frame``, ``hands_frame`` (fractional, empty
+    where uncovered) and ``body_time_s`` (the body frame's instant of the take, seconds).  Files made from a licensed take are as restricted as the take: keep them out of
+    the repository.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The three files written.
+    """
+    from pathlib import Path
+
+    from .bvh import write_bvh
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    files = [out / "body.bvh", out / "hands.bvh", out / "truth.csv"]
+    write_bvh(sep.body, files[0])
+    write_bvh(sep.hands, files[1])
+    rows = ["body_frame,hands_frame,body_time_s"]
+    for i, (t, b) in enumerate(zip(sep.truth, sep.body_time)):
+        rows.append(f"{i},{'' if not np.isfinite(t) else f'{t:.6f}'},{b / sep.take_fps:.6f}")
+    files[2].write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return files

@@ -294,3 +294,17 @@ def test_report_ranges_are_scored(take, monkeypatch):
     assert rec["unc_found"] == 100.0 and rec["unc_false"] == 0.0
     assert rec["flag_bad"] == 100.0 and rec["flag_good"] == 0.0
     assert rec["missing"] == 0.0
+
+
+def test_write_scenario_round_trip(take, tmp_path):
+    from splicer.bvh import read_bvh
+    from splicer.scenarios import write_scenario
+
+    s = make_scenario(take, "extra+rate", rng=np.random.default_rng(0))
+    body_f, hands_f, truth_f = write_scenario(s, tmp_path / "x")
+    b, h = read_bvh(body_f), read_bvh(hands_f)
+    assert b.n_frames == s.body.n_frames and b.fps == pytest.approx(29.97, abs=1e-3)
+    assert h.n_frames == s.hands.n_frames and h.fps == pytest.approx(120.0, abs=1e-3)
+    t = pd.read_csv(truth_f)
+    np.testing.assert_allclose(t["hands_frame"], s.truth, atol=1e-6)
+    np.testing.assert_allclose(t["body_time_s"], s.body_time / 30.0, atol=1e-6)

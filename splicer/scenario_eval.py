@@ -22,7 +22,10 @@ Per run (take x scenario x seed x method), over both sides' body frames:
   (target >= 80 %), and ``flag_good``, the share of frames whose true error is below 0.05 s
   that do (target <= 15 %).  A truly uncovered frame the method does not report uncovered
   counts as an error above 0.1 s; one it reports uncovered is right and left out; a covered
-  frame without a hands frame counts as an error above 0.1 s.
+  frame without a hands frame counts as an error above 0.1 s;
+* confidence ranking, when the report has ``sides[side]["confidence"]`` (one number per body
+  frame): :func:`confidence_auc`, the probability that a frame with error below 0.05 s is more
+  confident than one with error above 0.1 s (same frame classes as the honesty).
 
 Ranges are lists of ``[first, last]`` body frames, inclusive.
 """
@@ -46,7 +49,8 @@ from .splice import splice
 from .timewarp import sample_rotations
 
 __all__ = ["SCENARIO_METHODS", "SCENARIO_METRICS", "ranges_mask", "report_flags", "flag_scores",
-           "uncovered_scores", "alignment_scores", "pause_scores", "evaluate_scenario_pair", "evaluate_scenarios",
+           "uncovered_scores", "alignment_scores", "pause_scores", "confidence_auc", "judged_error",
+           "evaluate_scenario_pair", "evaluate_scenarios",
            "summarize_scenarios", "scenario_markdown"]
 
 #: splice options of each splice-based method (the current defaults: fixed ends)
@@ -74,6 +78,7 @@ SCENARIO_METRICS = {
     "unc_false": ("covered called uncovered (%)", "max"),
     "flag_bad": ("err > 0.1 s flagged (%)", "min"),
     "flag_good": ("err < 0.05 s flagged (%)", "max"),
+    "conf_auc": ("confidence AUC", "min"),
     "t_total": ("time (s)", "max"),
 }
 
@@ -105,6 +110,14 @@ def report_flags(side_report: dict, n: int) -> tuple[np.ndarray | None, np.ndarr
     return unc, low
 
 
+def judged_error(err_s: np.ndarray, covered: np.ndarray, uncovered: np.ndarray | None) -> np.ndarray:
+    """The error each frame is judged by for honesty: the true error on covered frames (``inf``
+    without a hands frame); on truly uncovered frames NaN (left out) when reported uncovered,
+    else ``inf``."""
+    unc = uncovered if uncovered is not None else np.zeros(len(covered), bool)
+    return np.where(covered, np.where(np.isfinite(err_s), err_s, np.inf), np.where(unc, np.nan, np.inf))
+
+
 def flag_scores(err_s: np.ndarray, covered: np.ndarray, uncovered: np.ndarray | None,
                 low: np.ndarray | None, *, bad_s: float = 0.1, good_s: float = 0.05) -> dict:
     """Confidence honesty of one side (or several sides concatenated).
@@ -131,12 +144,46 @@ def flag_scores(err_s: np.ndarray, covered: np.ndarray, uncovered: np.ndarray | 
         return {"flag_bad": np.nan, "flag_good": np.nan, "n_bad": 0, "n_good": 0}
     unc = uncovered if uncovered is not None else np.zeros(n, bool)
     flagged = unc | (low if low is not None else np.zeros(n, bool))
-    e = np.where(covered, np.where(np.isfinite(err_s), err_s, np.inf), np.where(unc, np.nan, np.inf))
+    e = judged_error(err_s, covered, uncovered)
     judged = ~np.isnan(e)
     bad = judged & (e > bad_s)
     good = judged & (e < good_s)
     pct = lambda sel: 100.0 * float(flagged[sel].mean()) if sel.any() else np.nan  # noqa: E731
     return {"flag_bad": pct(bad), "flag_good": pct(good), "n_bad": int(bad.sum()), "n_good": int(good.sum())}
+
+
+def confidence_auc(confidence: np.ndarray, err_s: np.ndarray, *, bad_s: float = 0.1, good_s: float = 0.05) -> float:
+    """Probability that a frame with true error below ``good_s`` has a higher confidence than a
+    frame with true error above ``bad_s`` (ties count half): 1 is a perfect ranking, 0.5 chance.
+
+    Parameters
+    ----------
+    confidence : np.ndarray [shape=(n,)]
+        The report's per-frame confidence in [0, 1].
+    err_s : np.ndarray [shape=(n,)]
+        True error, seconds (``inf`` for a frame that is wrong without an error, NaN to leave out).
+
+    Returns
+    -------
+    float
+        NaN when either group is empty.
+
+    Examples
+    --------
+    >>> confidence_auc(np.array([0.9, 0.8, 0.2, 0.8]), np.array([0.0, 0.01, 0.5, 0.3]))
+    0.875
+    """
+    c = np.asarray(confidence, dtype=np.float64)
+    e = np.asarray(err_s, dtype=np.float64)
+    ok = ~np.isnan(e) & np.isfinite(c)
+    good, bad = c[ok & (e < good_s)], c[ok & (e > bad_s)]
+    if len(good) == 0 or len(bad) == 0:
+        return np.nan
+    from scipy.stats import rankdata
+
+    r = rankdata(np.concatenate([good, bad]))
+    u = r[:len(good)].sum() - len(good) * (len(good) + 1) / 2.0
+    return float(u / (len(good) * len(bad)))
 
 
 def uncovered_scores(covered: np.ndarray, uncovered: np.ndarray | None) -> dict:
@@ -229,7 +276,7 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
                 sampled = sample_rotations(hands.rotations[:, [moving[k] for k in ks]], np.where(ok, hf, 0.0))
                 q[:, ks] = np.where(ok[:, None, None], sampled, ident[:, None, :])
         t_total = time.perf_counter() - t0
-        errs, covs, uncs, lows, has_unc, has_low = [], [], [], [], False, False
+        errs, covs, uncs, lows, confs, has_unc, has_low = [], [], [], [], [], False, False
         for s, hf in frames.items():
             unc, low = flags.get(s, (None, None))
             e = alignment_error_s(sep, hf)
@@ -238,6 +285,8 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
                 has_unc = True
             has_low |= low is not None
             errs.append(e)
+            conf = res.report["sides"][s].get("confidence") if method in SPLICE else None
+            confs.append(np.asarray(conf, dtype=np.float64) if conf is not None and len(conf) == n else None)
             covs.append(covered)
             uncs.append(unc if unc is not None else np.zeros(n, bool))
             lows.append(low if low is not None else np.zeros(n, bool))
@@ -251,6 +300,10 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
         rec.update(uncovered_scores(cov, unc_all))
         fl = flag_scores(err, cov, unc_all, low_all)
         rec.update(flag_bad=fl["flag_bad"], flag_good=fl["flag_good"])
+        if confs and all(c is not None for c in confs):
+            rec["conf_auc"] = confidence_auc(np.concatenate(confs), judged_error(err, cov, unc_all))
+        else:
+            rec["conf_auc"] = np.nan
         rec["t_total"] = t_total
         records.append(rec)
     return records
@@ -310,6 +363,7 @@ def summarize_scenarios(runs: pd.DataFrame) -> pd.DataFrame:
     """(scenario, method) x metric: mean over runs and, beside it, the worst run."""
     order_m = [m for m in SCENARIO_METHODS if m in set(runs["method"])]
     order_s = list(dict.fromkeys(runs["scenario"]))
+    runs = runs.assign(**{k: np.nan for k in SCENARIO_METRICS if k not in runs.columns})  # older runs files
     g = runs.groupby(["scenario", "method"], sort=False)
     cols = {}
     for key, (label, worst) in SCENARIO_METRICS.items():
@@ -331,6 +385,7 @@ COMPACT = {
     "uncovered found, %": ("uncovered found (%)", 1),
     "err > 0.1 s flagged, %": ("err > 0.1 s flagged (%)", 1),
     "err < 0.05 s flagged, %": ("err < 0.05 s flagged (%)", 1),
+    "confidence AUC": ("confidence AUC", 2),
 }
 
 

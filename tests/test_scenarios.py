@@ -10,7 +10,7 @@ from splicer.baselines import generic_dtw_frames
 from splicer.errors import SplicerError
 from splicer.roles import find_roles
 from splicer.rotations import quat_angle
-from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, evaluate_scenario_pair, flag_scores, pause_scores,
+from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, confidence_auc, evaluate_scenario_pair, flag_scores, pause_scores,
                                    ranges_mask, report_flags, summarize_scenarios, uncovered_scores)
 from splicer.scenarios import (SCENARIOS, Scenario, _wrist_speed, alignment_error_s, hands_take_time, invert_time,
                                make_scenario, scenario)
@@ -215,6 +215,15 @@ def test_pause_scores_worked_example(take):
     assert np.isnan(pause_scores(np.zeros(2 * take.n_frames), _make(take, **STILL), 2)["pause_mean_s"])
 
 
+def test_confidence_auc_worked_example():
+    conf = np.array([0.9, 0.8, 0.2, 0.8, 0.1, 0.5])
+    err = np.array([0.0, 0.01, 0.5, 0.3, np.nan, 0.07])  # NaN: left out; 0.07: neither class
+    # good {0.9, 0.8} vs bad {0.2, 0.8}: 3 wins and one tie of 4 pairs
+    assert confidence_auc(conf, err) == pytest.approx(0.875)
+    assert np.isnan(confidence_auc(conf, np.zeros(6)))
+    assert confidence_auc(np.array([0.0, 1.0]), np.array([0.0, np.inf])) == 0.0  # confident where wrong
+
+
 def test_alignment_scores_worked_example():
     err = np.array([0.0, 0.04, 0.1, 0.2, np.nan, np.nan])
     covered = np.array([1, 1, 1, 1, 1, 0], bool)
@@ -287,6 +296,7 @@ def test_report_ranges_are_scored(take, monkeypatch):
             err = alignment_error_s(s, r.hands_frame)
             res.report["sides"][side]["uncovered"] = _runs_of(~s.covered)
             res.report["sides"][side]["low_confidence"] = _runs_of(s.covered & (err > 0.1))
+            res.report["sides"][side]["confidence"] = np.where(s.covered & (err <= 0.1), 1.0, 0.0).tolist()
         return res
 
     monkeypatch.setattr(se, "splice", reporting_splice)
@@ -294,6 +304,7 @@ def test_report_ranges_are_scored(take, monkeypatch):
     assert rec["unc_found"] == 100.0 and rec["unc_false"] == 0.0
     assert rec["flag_bad"] == 100.0 and rec["flag_good"] == 0.0
     assert rec["missing"] == 0.0
+    assert rec["conf_auc"] == 1.0
 
 
 def test_write_scenario_round_trip(take, tmp_path):

@@ -411,7 +411,8 @@ def scenario_markdown(table: pd.DataFrame, scenario_name: str) -> str:
 def overview_markdown(runs: pd.DataFrame, method: str = "splice (smooth time map)") -> str:
     """One line per (scenario, take) for ``method``: mean and p95 error (s), finger error, and the
     generic DTW's finger error beside it."""
-    lines = ["| scenario | take | align mean, s | align p95, s | finger, deg | generic DTW finger, deg | oracle finger, deg |",
+    lines = ["| scenario | take | align mean, s | align p95, s | finger, deg | generic DTW finger, deg "
+             "| oracle finger, deg |",
              "|---|---|---:|---:|---:|---:|---:|"]
     for (sc, take), grp in runs.groupby(["scenario", "take"], sort=False):
         by = grp.groupby("method")
@@ -472,7 +473,9 @@ def scenario_cli(args, params, err) -> int:
         return 1
     table = summarize_scenarios(runs)
     seeds = sorted(set(runs["seed"]))
-    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Splice options: {opts or ('as recorded' if args.runs_csv else 'defaults')}. Cells: mean over runs (worst run). "
+    shown = opts or ("as recorded" if args.runs_csv else "defaults")
+    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Splice options: {shown}. "
+              "Cells: mean over runs (worst run). "
               "Alignment error in seconds of the performance (frames = seconds x body fps) over body frames "
               "the hands cover; finger error in degrees over covered frames.\n")
     parts = [header]

@@ -248,7 +248,8 @@ def _ease_junctions(hands: Motion, junctions: list[tuple[int, int, int]]) -> Mot
         w = _smoothstep(1.0 - (dist - 1) / (b - a))  # 1 at the anchor's neighbour, -> 0 far away
         q[k] = quat_slerp(q0[k], np.broadcast_to(q0[anchor], q0[k].shape), np.broadcast_to(w[:, None], q0[k].shape[:2]))
         if pos_cols:
-            ch[np.ix_(k, pos_cols)] = (1 - w[:, None]) * hands.channels[np.ix_(k, pos_cols)] + w[:, None] * hands.channels[anchor, pos_cols]
+            old = hands.channels[np.ix_(k, pos_cols)]
+            ch[np.ix_(k, pos_cols)] = (1 - w[:, None]) * old + w[:, None] * hands.channels[anchor, pos_cols]
     out = hands.with_channels(ch)
     return out.with_rotations(rot3, quat_hemisphere(q, axis=0))
 
@@ -486,8 +487,8 @@ def write_scenario(sep: ScenarioSeparation, folder) -> list:
     ``splice body.bvh hands.bvh`` on a scenario by hand.
 
     ``truth.csv`` has one row per body frame: ``body_frame``, ``hands_frame`` (fractional, empty
-    where uncovered) and ``body_time_s`` (the body frame's instant of the take, seconds).  Files made from a licensed take are as restricted as the take: keep them out of
-    the repository.
+    where uncovered) and ``body_time_s`` (the body frame's instant of the take, seconds).  Files
+    made from a licensed take are as restricted as the take: keep them out of the repository.
 
     Returns
     -------

@@ -10,7 +10,8 @@ from splicer.baselines import generic_dtw_frames
 from splicer.errors import SplicerError
 from splicer.roles import find_roles
 from splicer.rotations import quat_angle
-from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, confidence_auc, evaluate_scenario_pair, flag_scores, pause_scores,
+from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, confidence_auc, evaluate_scenario_pair,
+                                   flag_scores, pause_scores,
                                    ranges_mask, report_flags, summarize_scenarios, uncovered_scores)
 from splicer.scenarios import (SCENARIOS, Scenario, _wrist_speed, alignment_error_s, hands_take_time, invert_time,
                                make_scenario, scenario)
@@ -62,7 +63,8 @@ def test_pause_body_gives_flat_truth_of_k_frames(take):
     n = take.n_frames
     assert sp[p] <= np.median(sp[int(0.2 * n):int(0.8 * n)]) + 1e-12
     # the body holds: its frames in the pause are the same pose
-    np.testing.assert_allclose(s.body.channels[p + 1:p + 31], np.broadcast_to(s.body.channels[p], (30, s.body.skeleton.n_channels)))
+    held = s.body.channels[p + 1:p + 31]
+    np.testing.assert_allclose(held, np.broadcast_to(s.body.channels[p], held.shape))
     # a method that walks on through the pause is off by up to 1 s at its end
     walk = 2.0 * np.arange(s.body.n_frames, dtype=float)
     walk[p + 31:] = s.truth[p + 31:]

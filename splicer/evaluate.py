@@ -362,8 +362,9 @@ def build_parser() -> argparse.ArgumentParser:
     # --- scenarios of real sessions (issue 8; splicer.scenarios, splicer.scenario_eval) ---
     p.add_argument("--scenario", action="append", default=None, metavar="NAME",
                    help="run a scenario instead of the plain protocol (repeatable): base, all, or components "
-                        "joined by '+' from extra, extra-begin, extra-end, short, pause-hands, pause-body, "
-                        "speed, rate, imitation (e.g. extra+pause-hands)")
+                        "joined by '+' from extra, extra-begin, extra-end, short, clip, pause-hands, pause-body, "
+                        "speed, rate, imitation (e.g. extra+pause-hands); the scenario sets the rates and the "
+                        "warp speed (--rate-ratio and --warp-speed apply to the plain protocol only)")
     p.add_argument("--scenarios", choices=["all"], default=None,
                    help="'all': every named scenario (base, extra, short, pause-hands, pause-body, speed, rate, "
                         "imitation, all)")

@@ -9,8 +9,9 @@ performance from first frame to last.  :func:`make_scenario` makes the same kind
   held) and unrelated motion (a clip cut from elsewhere in the take, at normal speed);
   before the span: still then motion, after it: motion then still.  The junctions are
   eased over ``blend_s`` seconds inside the extra material (the genuine frames are untouched);
-* ``short``: the hands cover only part of the body (a share drawn from ``cover``, at a random
-  place); the truth is NaN for body frames no hands material covers;
+* ``short``: the hands cover only part of the body (a share drawn from ``cover``, 40-80 %, at a
+  random place); the truth is NaN for body frames no hands material covers; ``clip`` is the
+  same with 3-10 % (a short hand clip on a long body; not among the default :data:`SCENARIOS`);
 * ``pause-hands``: the hands performer holds: the hands take stays at one instant of the
   performance for 1-2 s (``K`` hands frames showing the same pose, with the capture noise)
   while the body goes on; the truth jumps by ``K`` hands frames there (steep time map);
@@ -98,6 +99,7 @@ COMPONENTS = {
     "extra-end": {"extra_end_s": (2.0, 8.0)},
     "extra": {"extra_begin_s": (2.0, 8.0), "extra_end_s": (2.0, 8.0)},
     "short": {"cover": (0.4, 0.8)},
+    "clip": {"cover": (0.03, 0.1)},  # a short hand clip on a long body (not in SCENARIOS)
     "pause-hands": {"pause_hands_s": (1.0, 2.0)},
     "pause-body": {"pause_body_s": (1.0, 2.0)},
     "speed": {"warp_speed": (0.33, 3.0)},

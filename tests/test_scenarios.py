@@ -129,6 +129,13 @@ def test_short_hands_truth_nan_outside(take):
     assert np.isnan(alignment_error_s(s, np.zeros(take.n_frames))[~inside]).all()
 
 
+def test_clip_covers_3_to_10_percent(take):
+    s = make_scenario(take, "clip", rng=np.random.default_rng(0))
+    c = s.params["cover"][0]
+    assert 0.03 <= c <= 0.1
+    assert s.covered.mean() == pytest.approx(c, abs=2.0 / take.n_frames)
+
+
 def test_rate_2997_vs_120(take):
     s = _make(take, body_fps=29.97, hands_fps=120.0, **STILL)
     assert s.body.fps == pytest.approx(29.97) and s.hands.fps == pytest.approx(120.0)

@@ -401,8 +401,9 @@ def build_parser() -> argparse.ArgumentParser:
     # --- scenarios of real sessions (issue 8; splicer.scenarios, splicer.scenario_eval) ---
     p.add_argument("--scenario", action="append", default=None, metavar="NAME",
                    help="run a scenario instead of the plain protocol (repeatable): base, all, or components "
-                        "joined by '+' from extra, extra-begin, extra-end, short, pause-hands, pause-body, "
-                        "speed, rate, imitation (e.g. extra+pause-hands)")
+                        "joined by '+' from extra, extra-begin, extra-end, short, clip, pause-hands, pause-body, "
+                        "speed, rate, imitation (e.g. extra+pause-hands); the scenario sets the rates and the "
+                        "warp speed (--rate-ratio and --warp-speed apply to the plain protocol only)")
     p.add_argument("--scenarios", choices=["all"], default=None,
                    help="'all': every named scenario (base, extra, short, pause-hands, pause-body, speed, rate, "
                         "imitation, all)")
@@ -410,6 +411,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="scenarios: also run the synthetic take (make_gesture_take, --synthetic-seconds, seed 0)")
     p.add_argument("--splice-option", action="append", default=None, metavar="KEY=VALUE",
                    help="scenarios: a SpliceOptions field for every splice method (repeatable; VALUE read as YAML)")
+    p.add_argument("--runs-csv", action="append", default=None, metavar="CSV",
+                   help="scenarios: tabulate earlier runs (OUT_runs.csv files, repeatable) instead of running")
+    p.add_argument("--dump", default=None, metavar="DIR",
+                   help="scenarios: also write DIR/<take>/<scenario>/seed<N>/{body.bvh,hands.bvh,truth.csv}")
     return p
 
 
@@ -421,7 +426,7 @@ def main(argv=None) -> int:
     def err(msg: str) -> None:
         print(msg, file=sys.stderr, flush=True)
 
-    if args.scenario or args.scenarios:
+    if args.scenario or args.scenarios or args.runs_csv:
         from .scenario_eval import scenario_cli
         return scenario_cli(args, params, err)
     try:

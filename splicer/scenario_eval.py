@@ -22,7 +22,10 @@ Per run (take x scenario x seed x method), over both sides' body frames:
   (target >= 80 %), and ``flag_good``, the share of frames whose true error is below 0.05 s
   that do (target <= 15 %).  A truly uncovered frame the method does not report uncovered
   counts as an error above 0.1 s; one it reports uncovered is right and left out; a covered
-  frame without a hands frame counts as an error above 0.1 s.
+  frame without a hands frame counts as an error above 0.1 s;
+* confidence ranking, when the report has ``sides[side]["confidence"]`` (one number per body
+  frame): :func:`confidence_auc`, the probability that a frame with error below 0.05 s is more
+  confident than one with error above 0.1 s (same frame classes as the honesty).
 
 Ranges are lists of ``[first, last]`` body frames, inclusive.
 """
@@ -40,13 +43,14 @@ from .errors import SplicerError
 from .model import Motion
 from .roles import find_roles
 from .rotations import quat_angle_deg
-from .scenarios import SCENARIOS, ScenarioSeparation, alignment_error_s, make_scenario, scenario
+from .scenarios import SCENARIOS, ScenarioSeparation, alignment_error_s, make_scenario, scenario, write_scenario
 from .separate import moving_finger_joints
 from .pipeline import splice
 from .timewarp import sample_rotations
 
 __all__ = ["SCENARIO_METHODS", "SCENARIO_METRICS", "ranges_mask", "report_flags", "flag_scores",
-           "uncovered_scores", "alignment_scores", "pause_scores", "evaluate_scenario_pair", "evaluate_scenarios",
+           "uncovered_scores", "alignment_scores", "pause_scores", "confidence_auc", "judged_error",
+           "evaluate_scenario_pair", "evaluate_scenarios",
            "summarize_scenarios", "scenario_markdown"]
 
 #: splice options of each splice-based method (the current defaults: fixed ends)
@@ -74,6 +78,7 @@ SCENARIO_METRICS = {
     "unc_false": ("covered called uncovered (%)", "max"),
     "flag_bad": ("err > 0.1 s flagged (%)", "min"),
     "flag_good": ("err < 0.05 s flagged (%)", "max"),
+    "conf_auc": ("confidence AUC", "min"),
     "t_total": ("time (s)", "max"),
 }
 
@@ -105,6 +110,14 @@ def report_flags(side_report: dict, n: int) -> tuple[np.ndarray | None, np.ndarr
     return unc, low
 
 
+def judged_error(err_s: np.ndarray, covered: np.ndarray, uncovered: np.ndarray | None) -> np.ndarray:
+    """The error each frame is judged by for honesty: the true error on covered frames (``inf``
+    without a hands frame); on truly uncovered frames NaN (left out) when reported uncovered,
+    else ``inf``."""
+    unc = uncovered if uncovered is not None else np.zeros(len(covered), bool)
+    return np.where(covered, np.where(np.isfinite(err_s), err_s, np.inf), np.where(unc, np.nan, np.inf))
+
+
 def flag_scores(err_s: np.ndarray, covered: np.ndarray, uncovered: np.ndarray | None,
                 low: np.ndarray | None, *, bad_s: float = 0.1, good_s: float = 0.05) -> dict:
     """Confidence honesty of one side (or several sides concatenated).
@@ -131,12 +144,46 @@ def flag_scores(err_s: np.ndarray, covered: np.ndarray, uncovered: np.ndarray | 
         return {"flag_bad": np.nan, "flag_good": np.nan, "n_bad": 0, "n_good": 0}
     unc = uncovered if uncovered is not None else np.zeros(n, bool)
     flagged = unc | (low if low is not None else np.zeros(n, bool))
-    e = np.where(covered, np.where(np.isfinite(err_s), err_s, np.inf), np.where(unc, np.nan, np.inf))
+    e = judged_error(err_s, covered, uncovered)
     judged = ~np.isnan(e)
     bad = judged & (e > bad_s)
     good = judged & (e < good_s)
     pct = lambda sel: 100.0 * float(flagged[sel].mean()) if sel.any() else np.nan  # noqa: E731
     return {"flag_bad": pct(bad), "flag_good": pct(good), "n_bad": int(bad.sum()), "n_good": int(good.sum())}
+
+
+def confidence_auc(confidence: np.ndarray, err_s: np.ndarray, *, bad_s: float = 0.1, good_s: float = 0.05) -> float:
+    """Probability that a frame with true error below ``good_s`` has a higher confidence than a
+    frame with true error above ``bad_s`` (ties count half): 1 is a perfect ranking, 0.5 chance.
+
+    Parameters
+    ----------
+    confidence : np.ndarray [shape=(n,)]
+        The report's per-frame confidence in [0, 1].
+    err_s : np.ndarray [shape=(n,)]
+        True error, seconds (``inf`` for a frame that is wrong without an error, NaN to leave out).
+
+    Returns
+    -------
+    float
+        NaN when either group is empty.
+
+    Examples
+    --------
+    >>> confidence_auc(np.array([0.9, 0.8, 0.2, 0.8]), np.array([0.0, 0.01, 0.5, 0.3]))
+    0.875
+    """
+    c = np.asarray(confidence, dtype=np.float64)
+    e = np.asarray(err_s, dtype=np.float64)
+    ok = ~np.isnan(e) & np.isfinite(c)
+    good, bad = c[ok & (e < good_s)], c[ok & (e > bad_s)]
+    if len(good) == 0 or len(bad) == 0:
+        return np.nan
+    from scipy.stats import rankdata
+
+    r = rankdata(np.concatenate([good, bad]))
+    u = r[:len(good)].sum() - len(good) * (len(good) + 1) / 2.0
+    return float(u / (len(good) * len(bad)))
 
 
 def uncovered_scores(covered: np.ndarray, uncovered: np.ndarray | None) -> dict:
@@ -229,7 +276,7 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
                 sampled = sample_rotations(hands.rotations[:, [moving[k] for k in ks]], np.where(ok, hf, 0.0))
                 q[:, ks] = np.where(ok[:, None, None], sampled, ident[:, None, :])
         t_total = time.perf_counter() - t0
-        errs, covs, uncs, lows, has_unc, has_low = [], [], [], [], False, False
+        errs, covs, uncs, lows, confs, has_unc, has_low = [], [], [], [], [], False, False
         for s, hf in frames.items():
             unc, low = flags.get(s, (None, None))
             e = alignment_error_s(sep, hf)
@@ -238,6 +285,8 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
                 has_unc = True
             has_low |= low is not None
             errs.append(e)
+            conf = res.report["sides"][s].get("confidence") if method in SPLICE else None
+            confs.append(np.asarray(conf, dtype=np.float64) if conf is not None and len(conf) == n else None)
             covs.append(covered)
             uncs.append(unc if unc is not None else np.zeros(n, bool))
             lows.append(low if low is not None else np.zeros(n, bool))
@@ -251,14 +300,22 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
         rec.update(uncovered_scores(cov, unc_all))
         fl = flag_scores(err, cov, unc_all, low_all)
         rec.update(flag_bad=fl["flag_bad"], flag_good=fl["flag_good"])
+        if confs and all(c is not None for c in confs):
+            rec["conf_auc"] = confidence_auc(np.concatenate(confs), judged_error(err, cov, unc_all))
+        else:
+            rec["conf_auc"] = np.nan
         rec["t_total"] = t_total
         records.append(rec)
     return records
 
 
+def _take_name(take: Motion) -> str:
+    return Path(take.source).name if take.source and not take.source.startswith("synth") else "synthetic"
+
+
 def evaluate_scenarios(takes, scenarios=SCENARIOS, *, seeds=range(100, 105), methods=SCENARIO_METHODS,
                        splice_options: dict | None = None, generic_window: int | None = None,
-                       progress=None, **separation) -> pd.DataFrame:
+                       progress=None, dump=None, **separation) -> pd.DataFrame:
     """Every take x scenario x seed x method, scored.
 
     Parameters
@@ -267,6 +324,8 @@ def evaluate_scenarios(takes, scenarios=SCENARIOS, *, seeds=range(100, 105), met
     scenarios : sequence of str
         Names for :func:`splicer.scenarios.scenario`.
     seeds : iterable of int
+    dump : path, optional
+        Also write each separation to ``dump/<take>/<scenario>/seed<N>/`` (:func:`splicer.scenarios.write_scenario`).
     separation
         Passed to :func:`splicer.scenarios.make_scenario` (``amplitude``, ``yaw_deg``, ...).
 
@@ -282,10 +341,12 @@ def evaluate_scenarios(takes, scenarios=SCENARIOS, *, seeds=range(100, 105), met
     for name in scenarios:
         sc = scenario(name)
         for take in takes:
-            tname = Path(take.source).name if take.source and not take.source.startswith("synth") else "synthetic"
+            tname = _take_name(take)
             for seed in seeds:
                 t0 = time.perf_counter()
                 sep = make_scenario(take, sc, rng=np.random.default_rng(seed), **separation)
+                if dump is not None:
+                    write_scenario(sep, Path(dump) / Path(tname).stem / sc.name / f"seed{seed}")
                 recs = evaluate_scenario_pair(take, sep, methods=methods, splice_options=splice_options,
                                               generic_window=generic_window)
                 for r in recs:
@@ -302,6 +363,7 @@ def summarize_scenarios(runs: pd.DataFrame) -> pd.DataFrame:
     """(scenario, method) x metric: mean over runs and, beside it, the worst run."""
     order_m = [m for m in SCENARIO_METHODS if m in set(runs["method"])]
     order_s = list(dict.fromkeys(runs["scenario"]))
+    runs = runs.assign(**{k: np.nan for k in SCENARIO_METRICS if k not in runs.columns})  # older runs files
     g = runs.groupby(["scenario", "method"], sort=False)
     cols = {}
     for key, (label, worst) in SCENARIO_METRICS.items():
@@ -323,6 +385,7 @@ COMPACT = {
     "uncovered found, %": ("uncovered found (%)", 1),
     "err > 0.1 s flagged, %": ("err > 0.1 s flagged (%)", 1),
     "err < 0.05 s flagged, %": ("err < 0.05 s flagged (%)", 1),
+    "confidence AUC": ("confidence AUC", 2),
 }
 
 
@@ -348,7 +411,8 @@ def scenario_markdown(table: pd.DataFrame, scenario_name: str) -> str:
 def overview_markdown(runs: pd.DataFrame, method: str = "splice (smooth time map)") -> str:
     """One line per (scenario, take) for ``method``: mean and p95 error (s), finger error, and the
     generic DTW's finger error beside it."""
-    lines = ["| scenario | take | align mean, s | align p95, s | finger, deg | generic DTW finger, deg | oracle finger, deg |",
+    lines = ["| scenario | take | align mean, s | align p95, s | finger, deg | generic DTW finger, deg "
+             "| oracle finger, deg |",
              "|---|---|---:|---:|---:|---:|---:|"]
     for (sc, take), grp in runs.groupby(["scenario", "take"], sort=False):
         by = grp.groupby("method")
@@ -382,21 +446,36 @@ def scenario_cli(args, params, err) -> int:
     try:
         for nm in names:
             scenario(nm)
-        takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds, note=lambda m: (print(m), err(m)))
-        if args.synthetic and not all(t.source and t.source.startswith("synth") for t in takes):
-            takes.append(make_gesture_take(args.synthetic_seconds, 30.0, np.random.default_rng(0)))
-        runs = evaluate_scenarios(takes, names, seeds=range(args.seed0, args.seed0 + args.seeds),
-                                  splice_options=opts or None, generic_window=args.generic_window, progress=err, amplitude=params.amplitude,
-                                  yaw_deg=params.yaw_deg, noise_deg=params.noise_deg,
-                                  warp_sigma_s=params.warp_sigma_s)
+        if args.runs_csv:
+            missing = [f for f in args.runs_csv if not Path(f).is_file()]
+            if missing:
+                raise SplicerError(f"{missing[0]}: no such file")
+            runs = pd.concat([pd.read_csv(f) for f in args.runs_csv], ignore_index=True)
+            if names:
+                runs = runs[runs["scenario"].isin([scenario(nm).name for nm in names])]
+            takes_txt = ", ".join(dict.fromkeys(runs["take"])) + f" (runs read from {', '.join(args.runs_csv)})"
+        else:
+            takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds,
+                                  note=lambda m: (print(m), err(m)))
+            if args.synthetic and not all(t.source and t.source.startswith("synth") for t in takes):
+                takes.append(make_gesture_take(args.synthetic_seconds, 30.0, np.random.default_rng(0)))
+            runs = evaluate_scenarios(takes, names, seeds=range(args.seed0, args.seed0 + args.seeds),
+                                      splice_options=opts or None, generic_window=args.generic_window,
+                                      progress=err, dump=args.dump, amplitude=params.amplitude,
+                                      yaw_deg=params.yaw_deg, noise_deg=params.noise_deg,
+                                      warp_sigma_s=params.warp_sigma_s)
+            takes_txt = ", ".join(f"{_take_name(t)} ({t.n_frames} frames @ {t.fps:g} fps)" for t in takes)
     except (SplicerError, ValueError, TypeError) as e:
         err(f"splicer-evaluate: {e}")
         return 1
+    if runs.empty:
+        err("splicer-evaluate: no runs to tabulate")
+        return 1
     table = summarize_scenarios(runs)
-    takes_txt = ", ".join(f"{Path(t.source).name if t.source and not t.source.startswith('synth') else 'synthetic'} "
-                          f"({t.n_frames} frames @ {t.fps:g} fps)" for t in takes)
     seeds = sorted(set(runs["seed"]))
-    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Splice options: {opts or 'defaults'}. Cells: mean over runs (worst run). "
+    shown = opts or ("as recorded" if args.runs_csv else "defaults")
+    header = (f"Takes: {takes_txt}. Seeds {seeds[0]}..{seeds[-1]}. Splice options: {shown}. "
+              "Cells: mean over runs (worst run). "
               "Alignment error in seconds of the performance (frames = seconds x body fps) over body frames "
               "the hands cover; finger error in degrees over covered frames.\n")
     parts = [header]

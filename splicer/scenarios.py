@@ -9,8 +9,9 @@ performance from first frame to last.  :func:`make_scenario` makes the same kind
   held) and unrelated motion (a clip cut from elsewhere in the take, at normal speed);
   before the span: still then motion, after it: motion then still.  The junctions are
   eased over ``blend_s`` seconds inside the extra material (the genuine frames are untouched);
-* ``short``: the hands cover only part of the body (a share drawn from ``cover``, at a random
-  place); the truth is NaN for body frames no hands material covers;
+* ``short``: the hands cover only part of the body (a share drawn from ``cover``, 40-80 %, at a
+  random place); the truth is NaN for body frames no hands material covers; ``clip`` is the
+  same with 3-10 % (a short hand clip on a long body; not among the default :data:`SCENARIOS`);
 * ``pause-hands``: the hands performer holds: the hands take stays at one instant of the
   performance for 1-2 s (``K`` hands frames showing the same pose, with the capture noise)
   while the body goes on; the truth jumps by ``K`` hands frames there (steep time map);
@@ -63,7 +64,7 @@ from .separate import _mean_rotation, confine_capture, finger_joints, warp_time_
 from .timewarp import resample_motion, smooth_noise
 
 __all__ = ["Scenario", "COMPONENTS", "SCENARIOS", "scenario", "ScenarioSeparation", "make_scenario",
-           "invert_time", "hands_take_time", "alignment_error_s"]
+           "invert_time", "hands_take_time", "alignment_error_s", "write_scenario"]
 
 
 @dataclass(frozen=True)
@@ -98,6 +99,7 @@ COMPONENTS = {
     "extra-end": {"extra_end_s": (2.0, 8.0)},
     "extra": {"extra_begin_s": (2.0, 8.0), "extra_end_s": (2.0, 8.0)},
     "short": {"cover": (0.4, 0.8)},
+    "clip": {"cover": (0.03, 0.1)},  # a short hand clip on a long body (not in SCENARIOS)
     "pause-hands": {"pause_hands_s": (1.0, 2.0)},
     "pause-body": {"pause_body_s": (1.0, 2.0)},
     "speed": {"warp_speed": (0.33, 3.0)},
@@ -248,7 +250,8 @@ def _ease_junctions(hands: Motion, junctions: list[tuple[int, int, int]]) -> Mot
         w = _smoothstep(1.0 - (dist - 1) / (b - a))  # 1 at the anchor's neighbour, -> 0 far away
         q[k] = quat_slerp(q0[k], np.broadcast_to(q0[anchor], q0[k].shape), np.broadcast_to(w[:, None], q0[k].shape[:2]))
         if pos_cols:
-            ch[np.ix_(k, pos_cols)] = (1 - w[:, None]) * hands.channels[np.ix_(k, pos_cols)] + w[:, None] * hands.channels[anchor, pos_cols]
+            old = hands.channels[np.ix_(k, pos_cols)]
+            ch[np.ix_(k, pos_cols)] = (1 - w[:, None]) * old + w[:, None] * hands.channels[anchor, pos_cols]
     out = hands.with_channels(ch)
     return out.with_rotations(rot3, quat_hemisphere(q, axis=0))
 
@@ -479,3 +482,32 @@ def make_scenario(take: Motion, sc: Scenario | str, *, rng: np.random.Generator,
     params["pause_windows"] = windows
     params["finger_joints"] = fingers
     return ScenarioSeparation(body, hands, truth, b, hands_time, (g0, g1), fps, sc, params)
+
+
+def write_scenario(sep: ScenarioSeparation, folder) -> list:
+    """Write ``body.bvh``, ``hands.bvh`` and ``truth.csv`` into ``folder`` (created), to try
+    ``splice body.bvh hands.bvh`` on a scenario by hand.
+
+    ``truth.csv`` has one row per body frame: ``body_frame``, ``hands_frame`` (fractional, empty
+    where uncovered) and ``body_time_s`` (the body frame's instant of the take, seconds).  Files
+    made from a licensed take are as restricted as the take: keep them out of the repository.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The three files written.
+    """
+    from pathlib import Path
+
+    from .bvh import write_bvh
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    files = [out / "body.bvh", out / "hands.bvh", out / "truth.csv"]
+    write_bvh(sep.body, files[0])
+    write_bvh(sep.hands, files[1])
+    rows = ["body_frame,hands_frame,body_time_s"]
+    for i, (t, b) in enumerate(zip(sep.truth, sep.body_time)):
+        rows.append(f"{i},{'' if not np.isfinite(t) else f'{t:.6f}'},{b / sep.take_fps:.6f}")
+    files[2].write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return files

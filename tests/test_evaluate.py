@@ -136,6 +136,19 @@ def test_cli_scenarios(tmp_path, capsys, monkeypatch):
     assert (runs.loc[runs["method"] == "oracle", "align_mean_s"] < 1e-9).all()
     csv = pd.read_csv(out.with_suffix(".csv"))
     assert {"scenario", "method", "align mean (s)", "align mean (s) worst"} <= set(csv.columns)
+    # tabulate the runs again from the CSV, one scenario only
+    assert main(["--runs-csv", str(out.parent / "sc_runs.csv"), "--scenario", "rate"]) == 0
+    cap = capsys.readouterr()
+    assert "### rate" in cap.out and "### extra+pause-body" not in cap.out
+    assert main(["--runs-csv", str(tmp_path / "none.csv")]) == 1
+    assert "no such file" in capsys.readouterr().err
+    # dump the separations as files
+    assert main(["--scenario", "short", "--seeds", "1", "--synthetic-seconds", "12", "--dump", str(tmp_path / "d")]) == 0
+    capsys.readouterr()
+    folder = tmp_path / "d" / "synthetic" / "short" / "seed0"
+    assert sorted(p.name for p in folder.iterdir()) == ["body.bvh", "hands.bvh", "truth.csv"]
+    truth = pd.read_csv(folder / "truth.csv")
+    assert truth["hands_frame"].isna().any() and truth["hands_frame"].notna().sum() > 100
     assert main(["--scenario", "nope", "--seeds", "1"]) == 1
     assert "unknown scenario 'nope'" in capsys.readouterr().err
     assert main(["--scenario", "base", "--seeds", "1", "--synthetic-seconds", "6", "--splice-option", "theta=sideways"]) == 1

@@ -10,7 +10,8 @@ from splicer.baselines import generic_dtw_frames
 from splicer.errors import SplicerError
 from splicer.roles import find_roles
 from splicer.rotations import quat_angle
-from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, evaluate_scenario_pair, flag_scores, pause_scores,
+from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, confidence_auc, evaluate_scenario_pair,
+                                   flag_scores, pause_scores,
                                    ranges_mask, report_flags, summarize_scenarios, uncovered_scores)
 from splicer.scenarios import (SCENARIOS, Scenario, _wrist_speed, alignment_error_s, hands_take_time, invert_time,
                                make_scenario, scenario)
@@ -62,7 +63,8 @@ def test_pause_body_gives_flat_truth_of_k_frames(take):
     n = take.n_frames
     assert sp[p] <= np.median(sp[int(0.2 * n):int(0.8 * n)]) + 1e-12
     # the body holds: its frames in the pause are the same pose
-    np.testing.assert_allclose(s.body.channels[p + 1:p + 31], np.broadcast_to(s.body.channels[p], (30, s.body.skeleton.n_channels)))
+    held = s.body.channels[p + 1:p + 31]
+    np.testing.assert_allclose(held, np.broadcast_to(s.body.channels[p], held.shape))
     # a method that walks on through the pause is off by up to 1 s at its end
     walk = 2.0 * np.arange(s.body.n_frames, dtype=float)
     walk[p + 31:] = s.truth[p + 31:]
@@ -125,6 +127,13 @@ def test_short_hands_truth_nan_outside(take):
                                atol=1e-9)
     assert 0.0 <= s.truth[first] <= 1.0  # the hands start within a body frame (2 hands frames) of the first covered body frame
     assert np.isnan(alignment_error_s(s, np.zeros(take.n_frames))[~inside]).all()
+
+
+def test_clip_covers_3_to_10_percent(take):
+    s = make_scenario(take, "clip", rng=np.random.default_rng(0))
+    c = s.params["cover"][0]
+    assert 0.03 <= c <= 0.1
+    assert s.covered.mean() == pytest.approx(c, abs=2.0 / take.n_frames)
 
 
 def test_rate_2997_vs_120(take):
@@ -215,6 +224,15 @@ def test_pause_scores_worked_example(take):
     assert np.isnan(pause_scores(np.zeros(2 * take.n_frames), _make(take, **STILL), 2)["pause_mean_s"])
 
 
+def test_confidence_auc_worked_example():
+    conf = np.array([0.9, 0.8, 0.2, 0.8, 0.1, 0.5])
+    err = np.array([0.0, 0.01, 0.5, 0.3, np.nan, 0.07])  # NaN: left out; 0.07: neither class
+    # good {0.9, 0.8} vs bad {0.2, 0.8}: 3 wins and one tie of 4 pairs
+    assert confidence_auc(conf, err) == pytest.approx(0.875)
+    assert np.isnan(confidence_auc(conf, np.zeros(6)))
+    assert confidence_auc(np.array([0.0, 1.0]), np.array([0.0, np.inf])) == 0.0  # confident where wrong
+
+
 def test_alignment_scores_worked_example():
     err = np.array([0.0, 0.04, 0.1, 0.2, np.nan, np.nan])
     covered = np.array([1, 1, 1, 1, 1, 0], bool)
@@ -260,3 +278,53 @@ def test_known_answer_layouts(take):
     m = _make(take, cover=(0.5, 0.5), cover_start=0.25, **STILL)
     cov = np.flatnonzero(m.covered)
     assert cov[0] == 90 and cov[-1] == 270  # (n - 1) = 360: frames 90..270
+
+
+def _runs_of(frames):
+    """Inclusive [first, last] ranges of the True runs of a boolean mask."""
+    idx = np.flatnonzero(frames)
+    if len(idx) == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.concatenate([[idx[0]], idx[cuts + 1]])
+    ends = np.concatenate([idx[cuts], [idx[-1]]])
+    return [[int(a), int(b)] for a, b in zip(starts, ends)]
+
+
+def test_report_ranges_are_scored(take, monkeypatch):
+    """The real splice's result, with the ranges a future splice reports added to its report
+    (uncovered: exactly the truly uncovered frames; low confidence: where its error > 0.1 s)."""
+    import splicer.scenario_eval as se
+
+    s = make_scenario(take, Scenario("t", cover=(0.6, 0.6), cover_start=0.2), rng=np.random.default_rng(3))
+    real = se.splice
+
+    def reporting_splice(body, hands, **kw):
+        res = real(body, hands, **kw)
+        for side, r in res.sides.items():
+            err = alignment_error_s(s, r.hands_frame)
+            res.report["sides"][side]["uncovered"] = _runs_of(~s.covered)
+            res.report["sides"][side]["low_confidence"] = _runs_of(s.covered & (err > 0.1))
+            res.report["sides"][side]["confidence"] = np.where(s.covered & (err <= 0.1), 1.0, 0.0).tolist()
+        return res
+
+    monkeypatch.setattr(se, "splice", reporting_splice)
+    rec, = evaluate_scenario_pair(take, s, methods=("splice (smooth time map)",))
+    assert rec["unc_found"] == 100.0 and rec["unc_false"] == 0.0
+    assert rec["flag_bad"] == 100.0 and rec["flag_good"] == 0.0
+    assert rec["missing"] == 0.0
+    assert rec["conf_auc"] == 1.0
+
+
+def test_write_scenario_round_trip(take, tmp_path):
+    from splicer.bvh import read_bvh
+    from splicer.scenarios import write_scenario
+
+    s = make_scenario(take, "extra+rate", rng=np.random.default_rng(0))
+    body_f, hands_f, truth_f = write_scenario(s, tmp_path / "x")
+    b, h = read_bvh(body_f), read_bvh(hands_f)
+    assert b.n_frames == s.body.n_frames and b.fps == pytest.approx(29.97, abs=1e-3)
+    assert h.n_frames == s.hands.n_frames and h.fps == pytest.approx(120.0, abs=1e-3)
+    t = pd.read_csv(truth_f)
+    np.testing.assert_allclose(t["hands_frame"], s.truth, atol=1e-6)
+    np.testing.assert_allclose(t["body_time_s"], s.body_time / 30.0, atol=1e-6)

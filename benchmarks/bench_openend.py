@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from splicer.align import pass1, path_median, warp_markers  # noqa: E402
 from splicer.confidence import pass_confidence  # noqa: E402
 from splicer.markers import Markers  # noqa: E402
-from splicer.openend import coarse_rate  # noqa: E402
+from splicer.openend import OPEN_COARSE_FPS, coarse_rate  # noqa: E402
 
 FPS = 30.0
 
@@ -76,7 +76,7 @@ def main(argv=None) -> int:
     hands = concat([gesture_markers(rng, pre), warp_markers(body, warp), gesture_markers(rng, post)])
     m = hands.n_frames
     truth = pre + np.interp(np.arange(n), warp, np.arange(span))
-    cf = coarse_rate(n, m, FPS, 5.0)
+    cf = coarse_rate(n, m, FPS, OPEN_COARSE_FPS)
     print(f"body {n:,} frames ({n / FPS / 60:.1f} min), hands {m:,} frames ({m / FPS / 60:.1f} min), {FPS:g} fps; "
           f"coarse pass at {cf:.2f} fps: {int(n * cf / FPS):,} x {int(m * cf / FPS):,} cells")
     h0 = hwm_mb()

@@ -17,8 +17,8 @@ from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from .errors import BandError
 from .markers import Markers
 from .metrics import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
-from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT, UNCOVERED_QUANTILE, coarse_rate, d1_sample, offset_band,
-                      uncovered_penalty)
+from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT, UNCOVERED_QUANTILE, coarse_rate,
+                      d1_sample, offset_band, uncovered_penalty)
 from .timewarp import sample_linear
 
 __all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
@@ -225,7 +225,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
     if ends == "open":
         return _pass1_open(body, hands, width=width, constraints=constraints, smooth_s=smooth_s,
-                           dead_zone=dead_zone, theta=theta, coarse_fps=OPEN_COARSE_FPS if coarse_fps is None else coarse_fps,
+                           dead_zone=dead_zone, theta=theta,
+                           coarse_fps=OPEN_COARSE_FPS if coarse_fps is None else coarse_fps,
                            coarse_width=coarse_width, progress=progress, offset_s=offset_s,
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
                            max_coarse_cells=max_coarse_cells, step_penalty=step_penalty,

@@ -324,7 +324,8 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
 
 def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin: bool | None = None,
                    open_end: bool | None = None, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
-                   horizontal_weight: float = 1.0, threshold: float = CONFIDENCE_THRESHOLD, error_scale_s: float = 0.1) -> Confidence:
+                   horizontal_weight: float = 1.0, threshold: float = CONFIDENCE_THRESHOLD,
+                   error_scale_s: float = 0.1) -> Confidence:
     """Per-body-frame spread, estimated error and confidence of an alignment.
 
     Parameters

@@ -14,8 +14,8 @@ from .band import Band, _as_constraints, _trim
 from .errors import BandError
 from .metrics import PhaseFeatures, d1_cost
 
-__all__ = ["UNCOVERED_QUANTILE", "OPEN_HORIZONTAL_WEIGHT", "OPEN_COARSE_FPS", "MAX_COARSE_CELLS", "uncovered_penalty", "coarse_rate", "offset_band",
-           "d1_sample"]
+__all__ = ["UNCOVERED_QUANTILE", "OPEN_HORIZONTAL_WEIGHT", "OPEN_COARSE_FPS", "MAX_COARSE_CELLS",
+           "uncovered_penalty", "coarse_rate", "offset_band", "d1_sample"]
 
 #: Default quantile of the local costs used as the per-row penalty of uncovered body frames.
 UNCOVERED_QUANTILE = 0.1

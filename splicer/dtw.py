@@ -409,8 +409,8 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
         Beyond the paper: a cell entered by a ``(i, j-1)`` step (one more hands frame for the
         same body row) counts this fraction of its local cost, in ``(0, 1]``.  With open ends
         a full weight rewards a path for skipping hands material wherever the hands take is
-        slower than the body (each extra hands frame costs a whole cell); 0.5 measures better
-        (see the README).  1 is the paper's recurrence.
+        slower than the body (each extra hands frame costs a whole cell); 0.3 measures better
+        (:data:`splicer.openend.OPEN_HORIZONTAL_WEIGHT`).  1 is the paper's recurrence.
 
     Returns
     -------

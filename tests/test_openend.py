@@ -370,7 +370,7 @@ def test_pass1_locates_the_body_inside_a_longer_take(sample_markers, seed):
         assert abs(res.path[0, 1] - pre) <= 1
         assert abs(res.path[-1, 1] - (pre + m_mid - 1)) <= 3     # D1's edge effect at the body's last frames
         err = np.abs(path_median(res.path, n) - truth)
-        assert err.mean() < 1.0 and np.quantile(err, 0.95) < 3.0
+        assert err.mean() < 1.0 and np.quantile(err, 0.95) < 4.0
         assert res.uncovered_cost > 0
     fixed = pass1(body, hands, width=30.0)        # the paper's fixed ends: forced through the extra material
     assert np.abs(path_median(fixed.path, n) - truth).mean() > 10 * err.mean()

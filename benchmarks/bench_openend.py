@@ -20,8 +20,9 @@ from scipy.ndimage import gaussian_filter1d
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from splicer.align import pass1, path_median, warp_markers  # noqa: E402
+from splicer.confidence import pass_confidence  # noqa: E402
 from splicer.markers import Markers  # noqa: E402
-from splicer.openend import coarse_rate  # noqa: E402
+from splicer.openend import OPEN_COARSE_FPS, coarse_rate  # noqa: E402
 
 FPS = 30.0
 
@@ -75,7 +76,7 @@ def main(argv=None) -> int:
     hands = concat([gesture_markers(rng, pre), warp_markers(body, warp), gesture_markers(rng, post)])
     m = hands.n_frames
     truth = pre + np.interp(np.arange(n), warp, np.arange(span))
-    cf = coarse_rate(n, m, FPS, 5.0)
+    cf = coarse_rate(n, m, FPS, OPEN_COARSE_FPS)
     print(f"body {n:,} frames ({n / FPS / 60:.1f} min), hands {m:,} frames ({m / FPS / 60:.1f} min), {FPS:g} fps; "
           f"coarse pass at {cf:.2f} fps: {int(n * cf / FPS):,} x {int(m * cf / FPS):,} cells")
     h0 = hwm_mb()
@@ -88,6 +89,13 @@ def main(argv=None) -> int:
           f"(max row {res.band.max_row_width}); covered {res.covered}; start hands frame {res.path[0, 1]} "
           f"(true {truth[0]:.1f}), end {res.path[-1, 1]} (true {truth[-1]:.1f}); error mean "
           f"{np.nanmean(err):.2f} frames, p95 {np.nanquantile(err, 0.95):.2f}, max {np.nanmax(err):.1f}")
+    h0 = hwm_mb()
+    t0 = time.perf_counter()
+    conf = pass_confidence(res, FPS)
+    dt = time.perf_counter() - t0
+    print(f"confidence (forward + backward over the fine band): {dt:.1f} s; peak RSS growth {hwm_mb() - h0:,.0f} MB "
+          f"beyond the above; frames with estimated error > 0.1 s: {100 * conf.low().mean():.1f} %; "
+          f"median estimated error {np.nanmedian(conf.est_error_s):.3f} s")
     return 0
 
 

@@ -17,8 +17,8 @@ from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from .errors import BandError
 from .markers import Markers
 from .metrics import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
-from .openend import (MAX_COARSE_CELLS, UNCOVERED_QUANTILE, coarse_rate, d1_sample, offset_band,
-                      uncovered_penalty)
+from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT, UNCOVERED_QUANTILE, coarse_rate,
+                      d1_sample, offset_band, uncovered_penalty)
 from .timewarp import sample_linear
 
 __all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
@@ -50,6 +50,8 @@ class PassResult:
         there (the whole body, or pass 2's ``covered`` span); ``"open"``: open-ended.
     step_penalty : float
         Penalty per non-diagonal step the pass used (0: the paper).
+    horizontal_weight : float
+        Weight of cells entered by a ``(i, j-1)`` step the pass used (1: the paper).
     """
 
     path: np.ndarray
@@ -61,6 +63,7 @@ class PassResult:
     uncovered_cost: float = 0.0
     ends: str = "fixed"
     step_penalty: float = 0.0
+    horizontal_weight: float = 1.0
 
 
 def resample_markers(markers: Markers, fps: float) -> Markers:
@@ -157,7 +160,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           dead_zone: float = 0.01, theta: str = "window", coarse_fps: float | None = None,
           coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
-          max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0) -> PassResult:
+          max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
+          horizontal_weight: float | None = None) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -178,7 +182,9 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         diagonal, then run the full-rate pass in a band of ``width`` around that coarse path
         (:func:`guided_band`).  A performance that drifts far from uniform timing over many
         minutes stays inside the band.  None: the band follows the diagonal (the paper).
-        With ``ends="open"``: the rate of the locating pass (default 5 fps).
+        With ``ends="open"``: the rate of the locating pass (default
+        :data:`splicer.openend.OPEN_COARSE_FPS`, 10 fps, lowered for long takes to fit
+        ``max_coarse_cells``).
     ends : {"fixed", "open"}
         ``"fixed"`` (the paper): the path runs from ``(0, 0)`` to ``(n - 1, m - 1)``.
         ``"open"`` (ALGORITHM.md section 9): the body's span may lie anywhere in the hands
@@ -203,6 +209,11 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     step_penalty : float
         Beyond the paper: D1 units added to every non-diagonal step, in every DTW of the pass
         (:func:`splicer.dtw.dtw`); 0 is the paper's recurrence.
+    horizontal_weight : float, optional
+        Weight of the local cost of a cell entered by a ``(i, j-1)`` step (one more hands
+        frame on the same body frame), in ``(0, 1]``.  Default: 1 (the paper) with fixed
+        ends, :data:`OPEN_HORIZONTAL_WEIGHT` with open ends, where a full weight makes a path
+        that skips hands material cheaper than one that covers it.
 
     Returns
     -------
@@ -214,10 +225,13 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
     if ends == "open":
         return _pass1_open(body, hands, width=width, constraints=constraints, smooth_s=smooth_s,
-                           dead_zone=dead_zone, theta=theta, coarse_fps=5.0 if coarse_fps is None else coarse_fps,
+                           dead_zone=dead_zone, theta=theta,
+                           coarse_fps=OPEN_COARSE_FPS if coarse_fps is None else coarse_fps,
                            coarse_width=coarse_width, progress=progress, offset_s=offset_s,
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
-                           max_coarse_cells=max_coarse_cells, step_penalty=step_penalty)
+                           max_coarse_cells=max_coarse_cells, step_penalty=step_penalty,
+                           horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight)
+    hw = 1.0 if horizontal_weight is None else float(horizontal_weight)
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
     n, m = body.n_frames, hands.n_frames
@@ -227,7 +241,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         ccons = _coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)
         cw = (coarse_width if coarse_width is not None else width) / factor
         coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta,
-                       step_penalty=step_penalty)
+                       step_penalty=step_penalty, horizontal_weight=hw)
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints)
         except BandError:
@@ -235,12 +249,12 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     else:
         band = make_band(n, m, width, constraints)
     d1 = d1_cost(fb, fh, theta=theta)
-    res = _run(d1, band, progress, step_penalty=step_penalty)
-    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty)
+    res = _run(d1, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw)
 
 
 def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, coarse_fps, coarse_width, progress,
-                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty):
+                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight):
     n, m = body.n_frames, hands.n_frames
     cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
     factor = body.fps / cfps
@@ -262,7 +276,7 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
         cw = (coarse_width if coarse_width is not None else 30.0 * body.fps) / factor
         cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
     coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u,
-                 step_penalty=step_penalty)
+                 step_penalty=step_penalty, horizontal_weight=horizontal_weight)
     if progress is not None:
         progress(0.0)
     if factor > 1.0:
@@ -275,8 +289,10 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
     d1 = d1_cost(fb, fh, theta=theta)
-    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty)
-    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty)
+    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
+               horizontal_weight=horizontal_weight)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
+                      float(horizontal_weight))
 
 
 def path_median(path: np.ndarray, n: int) -> np.ndarray:

@@ -3,11 +3,14 @@
 Forward and backward accumulated costs over the band give, for every admissible cell, the
 cost of the best path forced through it::
 
-    through[i, j] = fwd[i, j] + bwd[i, j] - c[i, j]
+    through[i, j] = fwd[i, j] + bwd[i, j]
 
-``fwd`` is the engine's recurrence (:mod:`splicer.dtw`, with the same start costs and the
-same open-begin rule); ``bwd`` is that recurrence run on the reversed band and costs (the
-end costs become start costs).  ``min_j through[i, j]`` is the optimal cost for every row the
+``fwd`` is the engine's recurrence (:mod:`splicer.dtw`, with the same start costs, step
+penalty, horizontal weight and open-begin rule): the cheapest prefix ending at ``(i, j)``,
+its own cost included; ``bwd`` is the mirror recurrence from the ends backwards (the end
+costs play the start costs' part): the cheapest suffix from ``(i, j)``, its own cost
+excluded (with the paper's recurrence, ``bwd = fwd`` on the reversed band and costs, minus
+``c[i, j]``).  ``min_j through[i, j]`` is the optimal cost for every row the
 optimal path covers.  The *excess* ``through[i, j] - optimum`` says how much worse the
 alignment becomes when row ``i`` is forced to hands frame ``j``: it rises fast away from the
 chosen cell where the row is well determined, and stays flat where it is not (a still arm,
@@ -88,14 +91,24 @@ class Confidence:
 # ---------------------------------------------------------------- kernels (private, dumb)
 
 @njit(cache=True)
-def _accumulate(c, lo, hi, off, sc, ob, pen, out, rowmin):
-    # Forward accumulated cost over the band (the engine's recurrence and ties do not matter
-    # here, only values).  c, out: flat float32 band cells (row i at off[i] .. off[i+1]-1).
-    # sc[i]: start cost of row i, anywhere in row 0 or at column 0 of row i (+inf none; fixed
-    # begin: all +inf and (0, lo[0]) starts at 0).
-    # ob: open begin, no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.
-    # pen: added to the (i-1, j) and (i, j-1) steps.
-    # out = gamma - rowmin[i] (float32); rowmin[i] = min of row i's finite gamma (+inf if none).
+def _store_row(cur, w, out, o, rowmin, i):
+    m = np.inf
+    for k in range(w):
+        if cur[k] < m:
+            m = cur[k]
+    rowmin[i] = m
+    for k in range(w):
+        out[o + k] = cur[k] - m if m < np.inf else np.inf
+
+
+@njit(cache=True)
+def _forward(c, lo, hi, off, sc, ob, pen, hx, out, rowmin):
+    # Forward accumulated cost, the engine's recurrence (values only): the cheapest prefix
+    # ending at (i, j), the cell's own local cost included (times 1 + hx when entered by a
+    # (i, j-1) step).  c, out: flat float32 band cells (row i at off[i] .. off[i+1]-1).
+    # sc[i]: start cost (open begin: anywhere in row 0, column 0 of row i; fixed begin: only
+    # (0, lo[0]) at 0).  ob: no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.
+    # out = value - rowmin[i] (float32); rowmin[i] = the row's minimum (+inf if none finite).
     n = lo.shape[0]
     wmax = 0
     for i in range(n):
@@ -109,6 +122,7 @@ def _accumulate(c, lo, hi, off, sc, ob, pen, out, rowmin):
         w = hi[i] - L + 1
         for k in range(w):
             j = L + k
+            cc = np.float64(c[off[i] + k])
             best = np.inf
             isst = False
             if i > 0:
@@ -119,22 +133,18 @@ def _accumulate(c, lo, hi, off, sc, ob, pen, out, rowmin):
                 if plo <= j <= phi and not (ob and j == 0 and pst[j - plo]):
                     if prev[j - plo] + pen < best:
                         best = prev[j - plo] + pen
-            if k > 0 and cur[k - 1] + pen < best:
-                best = cur[k - 1] + pen
+            if k > 0:
+                lp = cur[k - 1] + pen + (hx * cc if (hx != 0.0 and cc < np.inf) else 0.0)
+                if lp < best:
+                    best = lp
             if (ob and (i == 0 or j == 0)) or (i == 0 and k == 0):
                 s = sc[i] if ob else 0.0
                 if s < best:
                     best = s
                     isst = True
-            cur[k] = c[off[i] + k] + best
+            cur[k] = cc + best
             cst[k] = isst
-        m = np.inf
-        for k in range(w):
-            if cur[k] < m:
-                m = cur[k]
-        rowmin[i] = m
-        for k in range(w):
-            out[off[i] + k] = cur[k] - m if m < np.inf else np.inf
+        _store_row(cur, w, out, off[i], rowmin, i)
         for k in range(w):
             prev[k] = cur[k]
             pst[k] = cst[k]
@@ -143,8 +153,61 @@ def _accumulate(c, lo, hi, off, sc, ob, pen, out, rowmin):
 
 
 @njit(cache=True)
-def _row_stats(c, fwd, fmin, bwd, bmin, lo, hi, off, roff, optimum, tau, jc, spread, err):
-    # Per covered row i (jc[i] finite): excess = fwd + bwd - c - optimum over the row's cells;
+def _backward(c, lo, hi, off, ec, oe, pen, hx, m, out, rowmin):
+    # Backward accumulated cost: the cheapest suffix from (i, j) to an end, the cell's own
+    # local cost excluded (each later cell counts as the forward pass counts it).
+    # ec[i]: end cost (open end: anywhere in row n-1, column m-1 of row i; fixed end: only
+    # (n-1, m-1) at 0).  oe: no step (i, m-1) -> (i+1, m-1) into a cell whose best is an end
+    # (the engine cannot end on a hold of the last hands frame).
+    n = lo.shape[0]
+    wmax = 0
+    for i in range(n):
+        wmax = max(wmax, hi[i] - lo[i] + 1)
+    nxt = np.full(wmax, np.inf)
+    cur = np.full(wmax, np.inf)
+    nst = np.zeros(wmax, np.bool_)
+    cst = np.zeros(wmax, np.bool_)
+    for i in range(n - 1, -1, -1):
+        L = lo[i]
+        w = hi[i] - L + 1
+        for k in range(w - 1, -1, -1):
+            j = L + k
+            best = np.inf
+            isend = False
+            if i < n - 1:
+                nlo = lo[i + 1]
+                nhi = hi[i + 1]
+                if nlo <= j + 1 <= nhi:
+                    v = nxt[j + 1 - nlo] + np.float64(c[off[i + 1] + j + 1 - nlo])
+                    if v < best:
+                        best = v
+                if nlo <= j <= nhi and not (oe and j == m - 1 and nst[j - nlo]):
+                    v = nxt[j - nlo] + pen + np.float64(c[off[i + 1] + j - nlo])
+                    if v < best:
+                        best = v
+            if k < w - 1:
+                cc = np.float64(c[off[i] + k + 1])
+                v = cur[k + 1] + pen + cc + (hx * cc if (hx != 0.0 and cc < np.inf) else 0.0)
+                if v < best:
+                    best = v
+            if (oe and (i == n - 1 or j == m - 1)) or (i == n - 1 and j == m - 1):
+                e = ec[i] if oe else 0.0
+                if e < best:
+                    best = e
+                    isend = True
+            cur[k] = best
+            cst[k] = isend
+        _store_row(cur, w, out, off[i], rowmin, i)
+        for k in range(w):
+            nxt[k] = cur[k]
+            nst[k] = cst[k]
+            cur[k] = np.inf
+            cst[k] = False
+
+
+@njit(cache=True)
+def _row_stats(fwd, fmin, bwd, bmin, lo, hi, off, optimum, tau, jc, spread, err):
+    # Per covered row i (jc[i] finite): excess = fwd + bwd - optimum over the row's cells;
     # spread = max - min of columns with excess <= tau, err = max |j - jc| over them.
     n = lo.shape[0]
     for i in range(n):
@@ -152,16 +215,15 @@ def _row_stats(c, fwd, fmin, bwd, bmin, lo, hi, off, roff, optimum, tau, jc, spr
             continue
         L = lo[i]
         w = hi[i] - L + 1
-        ri = n - 1 - i
         jmin = -1
         jmax = -1
         e = 0.0
         for k in range(w):
-            b = bwd[roff[ri] + (w - 1 - k)]
+            b = bwd[off[i] + k]
             f = fwd[off[i] + k]
             if not (np.isfinite(b) and np.isfinite(f)):
                 continue
-            x = (np.float64(f) + fmin[i]) + (np.float64(b) + bmin[ri]) - np.float64(c[off[i] + k]) - optimum
+            x = (np.float64(f) + fmin[i]) + (np.float64(b) + bmin[i]) - optimum
             if x <= tau:
                 j = L + k
                 if jmin < 0:
@@ -206,14 +268,8 @@ def _gather(cost, band: Band, off: np.ndarray) -> np.ndarray:
     return flat
 
 
-def _reverse_band(band: Band):
-    lo = (band.m - 1 - band.hi)[::-1].copy()
-    hi = (band.m - 1 - band.lo)[::-1].copy()
-    return lo, hi
-
-
 def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end: bool | None = None,
-                  uncovered_cost: float = 0.0, step_penalty: float = 0.0):
+                  uncovered_cost: float = 0.0, step_penalty: float = 0.0, horizontal_weight: float = 1.0):
     """Forward and backward accumulated costs over the band (see module docstring).
 
     Parameters
@@ -223,7 +279,7 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
     band : Band
     open_begin, open_end : bool, optional
         End conditions (default: the band's ``open_begin`` / ``open_end``).
-    uncovered_cost, step_penalty : float
+    uncovered_cost, step_penalty, horizontal_weight : float
         As in :func:`splicer.dtw.dtw`.
 
     Returns
@@ -232,8 +288,8 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
         The forced-path cost of each admissible cell of row ``i`` (float64, ``+inf`` where no
         path passes).  For tests and plots; :func:`row_confidence` does not build it.
     parts : tuple
-        ``(c, fwd, fmin, bwd, bmin, off, roff)``: flat float32 local, forward (relative to
-        ``fmin``) and reversed backward (relative to ``bmin``) costs and the row offsets.
+        ``(c, fwd, fmin, bwd, bmin, off)``: flat float32 local, forward (relative to ``fmin``)
+        and backward (relative to ``bmin``) costs and the row offsets.
     """
     ob = band.open_begin if open_begin is None else bool(open_begin)
     oe = band.open_end if open_end is None else bool(open_end)
@@ -241,6 +297,9 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
     pen = float(step_penalty)
     if not (pen >= 0 and np.isfinite(pen)):
         raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
+    hw = float(horizontal_weight)
+    if not 0.0 < hw <= 1.0:
+        raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
     n = band.n
     widths = band.hi - band.lo + 1
     off = np.zeros(n + 1, np.int64)
@@ -250,29 +309,23 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
     hi = np.ascontiguousarray(band.hi, np.int64)
     fwd = np.empty_like(c)
     fmin = np.empty(n)
-    _accumulate(c, lo, hi, off, sc, ob, pen, fwd, fmin)
-    rlo, rhi = _reverse_band(band)
-    roff = np.zeros(n + 1, np.int64)
-    np.cumsum((rhi - rlo + 1), out=roff[1:])
-    rc = np.empty_like(c)
-    for i in range(n):                    # row n-1-i reversed in column order
-        rc[roff[n - 1 - i]:roff[n - i]] = c[off[i]:off[i + 1]][::-1]
+    _forward(c, lo, hi, off, sc, ob, pen, hw - 1.0, fwd, fmin)
     bwd = np.empty_like(c)
     bmin = np.empty(n)
-    _accumulate(rc, rlo, rhi, roff, ec[::-1].copy(), oe, pen, bwd, bmin)
+    _backward(c, lo, hi, off, ec, oe, pen, hw - 1.0, band.m, bwd, bmin)
 
     def through(i):
-        ri = n - 1 - i
         f = fwd[off[i]:off[i + 1]].astype(np.float64) + fmin[i]
-        b = bwd[roff[ri]:roff[ri + 1]][::-1].astype(np.float64) + bmin[ri]
-        return np.arange(band.lo[i], band.hi[i] + 1), f + b - c[off[i]:off[i + 1]].astype(np.float64)
+        b = bwd[off[i]:off[i + 1]].astype(np.float64) + bmin[i]
+        return np.arange(band.lo[i], band.hi[i] + 1), f + b
 
-    return through, (c, fwd, fmin, bwd, bmin, off, roff)
+    return through, (c, fwd, fmin, bwd, bmin, off)
 
 
 def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin: bool | None = None,
                    open_end: bool | None = None, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
-                   threshold: float = CONFIDENCE_THRESHOLD, error_scale_s: float = 0.1) -> Confidence:
+                   horizontal_weight: float = 1.0, threshold: float = CONFIDENCE_THRESHOLD,
+                   error_scale_s: float = 0.1) -> Confidence:
     """Per-body-frame spread, estimated error and confidence of an alignment.
 
     Parameters
@@ -287,8 +340,8 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
         Frame rate of the columns (hands frames at the alignment's rate), frames per second.
     open_begin, open_end : bool, optional
         End conditions of the alignment (default: the band's flags).
-    uncovered_cost, step_penalty : float
-        Penalties the alignment used (:func:`splicer.dtw.dtw`).
+    uncovered_cost, step_penalty, horizontal_weight : float
+        Penalties and weight the alignment used (:func:`splicer.dtw.dtw`).
     threshold : float
         Excess threshold in units of the median local cost along the path (> 0).
     error_scale_s : float
@@ -314,22 +367,25 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
     if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] < 1:
         raise ValueError(f"path must have shape (K, 2), got {path.shape}")
     n = band.n
-    _, (c, fwd, fmin, bwd, bmin, off, roff) = through_costs(cost, band, open_begin=open_begin, open_end=open_end,
-                                                            uncovered_cost=uncovered_cost, step_penalty=step_penalty)
+    _, (c, fwd, fmin, bwd, bmin, off) = through_costs(cost, band, open_begin=open_begin, open_end=open_end,
+                                                      uncovered_cost=uncovered_cost, step_penalty=step_penalty,
+                                                      horizontal_weight=horizontal_weight)
     # the path's own cost: local costs along it plus its uncovered rows
     idx = off[path[:, 0]] + path[:, 1] - band.lo[path[:, 0]]
     local = c[idx].astype(np.float64)
     covered = (int(path[0, 0]), int(path[-1, 0]))
     d = np.diff(path, axis=0)
     bends = int(np.count_nonzero((d[:, 0] == 0) | (d[:, 1] == 0)))
-    optimum = (float(local.sum()) + float(uncovered_cost) * (covered[0] + (n - 1 - covered[1]))
+    weight = np.ones(len(local))
+    weight[1:][d[:, 0] == 0] = float(horizontal_weight)       # cells entered by a (i, j-1) step
+    optimum = (float(np.sum(weight * local)) + float(uncovered_cost) * (covered[0] + (n - 1 - covered[1]))
                + float(step_penalty) * bends)
     tau = float(threshold) * max(float(np.median(local)), 1e-12)
     jc = path_median(path, n)
     spread = np.full(n, np.nan)
     err = np.full(n, np.nan)
-    _row_stats(c, fwd, fmin, bwd, bmin, np.ascontiguousarray(band.lo, np.int64),
-               np.ascontiguousarray(band.hi, np.int64), off, roff, optimum, tau, jc, spread, err)
+    _row_stats(fwd, fmin, bwd, bmin, np.ascontiguousarray(band.lo, np.int64),
+               np.ascontiguousarray(band.hi, np.int64), off, optimum, tau, jc, spread, err)
     est = err / float(fps)
     conf = np.where(np.isfinite(est), 1.0 / (1.0 + (np.nan_to_num(est) / error_scale_s) ** 2), 0.0)
     return Confidence(spread_frames=spread, est_error_s=est, confidence=conf, threshold=tau,
@@ -352,7 +408,8 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
     if getattr(result, "ends", "fixed") == "open" or tuple(cov) == (0, n - 1):
         return row_confidence(lambda i0, i1: result.local_cost(band, i0, i1), band, result.path, fps,
                               uncovered_cost=getattr(result, "uncovered_cost", 0.0),
-                              step_penalty=getattr(result, "step_penalty", 0.0), **kwargs)
+                              step_penalty=getattr(result, "step_penalty", 0.0),
+                              horizontal_weight=getattr(result, "horizontal_weight", 1.0), **kwargs)
     a, b = int(cov[0]), int(cov[1])
     # the span's own fixed-ends problem: rows a..b, columns shifted by the path's first column
     c0 = int(result.path[0, 1])
@@ -360,7 +417,7 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
                lo=band.lo[a:b + 1] - c0, hi=band.hi[a:b + 1] - c0)
     conf = row_confidence(lambda i0, i1: result.local_cost(band, i0 + a, i1 + a), sub,
                           result.path - np.array([a, c0]), fps, step_penalty=getattr(result, "step_penalty", 0.0),
-                          **kwargs)
+                          horizontal_weight=getattr(result, "horizontal_weight", 1.0), **kwargs)
     def put(x, fill):
         out = np.full(n, fill)
         out[a:b + 1] = x

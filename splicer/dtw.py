@@ -3,9 +3,10 @@
 Recurrence (0-based, path from ``(0, 0)`` to ``(n - 1, m - 1)``)::
 
     gamma[0, 0] = c[0, 0]
-    gamma[i, j] = c[i, j] + min(gamma[i-1, j-1], gamma[i-1, j] + p, gamma[i, j-1] + p)
+    gamma[i, j] = c[i, j] + min(gamma[i-1, j-1], gamma[i-1, j] + p, gamma[i, j-1] + p + (h - 1) c[i, j])
 
-(``p = step_penalty``, 0 by default: the paper) over the admissible cells of a :class:`~splicer.band.Band`; cells outside the band are
+(``p = step_penalty``, 0, and ``h = horizontal_weight``, 1, by default: the paper) over the
+admissible cells of a :class:`~splicer.band.Band`; cells outside the band are
 ``+inf``.  Ties are broken deterministically: the diagonal predecessor ``(i-1, j-1)`` is
 preferred, then ``(i-1, j)``, then ``(i, j-1)`` (a later candidate wins only if it is
 strictly smaller).
@@ -72,6 +73,8 @@ class DTWResult:
         Penalty per uncovered body row included in ``cost``.
     step_penalty : float
         Penalty per non-diagonal step included in ``cost``.
+    horizontal_weight : float
+        Weight of the local cost of cells entered by a ``(i, j-1)`` step.
     """
 
     path: np.ndarray
@@ -82,12 +85,13 @@ class DTWResult:
     open_end: bool = False
     uncovered_cost: float = 0.0
     step_penalty: float = 0.0
+    horizontal_weight: float = 1.0
 
 
 # ---------------------------------------------------------------- kernels (private, dumb)
 
 @njit(cache=True)
-def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
+def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen, hx):
     # One DP row.  crow[c0 + k]: local cost of column L + k; prev[k]: gamma of the previous
     # row at column plo + k (columns plo..phi); writes cur[0..H-L], steps[s0 + k].
     # Step codes: 0 diagonal, 1 from (i-1, j), 2 from (i, j-1), 3 the path starts here.
@@ -96,6 +100,8 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
     # ob (open begin): no step (i-1, 0) -> (i, 0) out of a start cell (steps[p0] == 3): body
     # rows before the first hands frame are uncovered, not held on it.
     # pen: added to the (i-1, j) and (i, j-1) steps (0: the paper's recurrence).
+    # hx: (horizontal weight - 1); a cell entered by a (i, j-1) step costs (1 + hx) * c
+    # (hx * c is skipped when hx == 0 or c == +inf, so that +inf costs stay +inf, not NaN).
     inf = np.inf
     w = H - L + 1
     d = L - plo
@@ -127,16 +133,17 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
             u = up[t] + pen
             su = u < a
             best = u if su else a
-            lp = left + pen
+            c = cr[t]
+            lp = left + pen + (hx * c if (hx != 0.0 and c < np.inf) else 0.0)
             sl = lp < best
             st[t] = 2 if sl else (1 if su else 0)
-            left = cr[t] + (lp if sl else best)
+            left = c + (lp if sl else best)
             cur[t + 1] = left
     k = max(kend + 1, 1)
     if k < w and L + k == phi + 1:        # diagonal and left only
         best = prev[phi - plo]
         s = 0
-        left = cur[k - 1] + pen
+        left = cur[k - 1] + pen + (hx * crow[c0 + k] if (hx != 0.0 and crow[c0 + k] < np.inf) else 0.0)
         if left < best:
             best = left
             s = 2
@@ -148,13 +155,14 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
         st = steps[s0 + k:s0 + w]
         left = cur[k - 1]
         for t in range(w - k):
-            left = cr[t] + left + pen
+            c = cr[t]
+            left = c + (left + pen + (hx * c if (hx != 0.0 and c < np.inf) else 0.0))
             cur[k + t] = left
             st[t] = 2
 
 
 @njit(cache=True)
-def _dp_first_row(crow, c0, w, cur, steps, sc, pen):
+def _dp_first_row(crow, c0, w, cur, steps, sc, pen, hx):
     # Row 0: columns lo[0] .. lo[0] + w - 1.  The path starts at the first cell (fixed begin:
     # (0, 0)) or, with sc finite (open begin), at any cell where sc is strictly below the
     # accumulated cost from the left.
@@ -163,7 +171,7 @@ def _dp_first_row(crow, c0, w, cur, steps, sc, pen):
         cur[0] += sc
     steps[0] = 3
     for k in range(1, w):
-        left = cur[k - 1] + pen
+        left = cur[k - 1] + pen + (hx * crow[c0 + k] if (hx != 0.0 and crow[c0 + k] < np.inf) else 0.0)
         if sc < left:
             cur[k] = crow[c0 + k] + sc
             steps[k] = 3
@@ -192,7 +200,7 @@ def _scan_end(cur, w, ec, i, L, best, steps, s0, last_row, m):
 
 
 @njit(cache=True)
-def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, m):
+def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m):
     # Rows i0..i1-1 from cost block C (row r = i - i0); column j of row i is at C[r, j] if
     # absolute else C[r, j - lo[i]].  rows: (2, width) gamma buffer indexed by row parity.
     # sc[i]: start cost in row i (+inf: none; row 0 always starts); ec[i]: end cost (+inf: none).
@@ -201,17 +209,17 @@ def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, m
         c0 = lo[i] if absolute else 0
         cur = rows[i & 1]
         if i == 0:
-            _dp_first_row(C[r], c0, hi[0] - lo[0] + 1, cur, steps, sc[0], pen)
+            _dp_first_row(C[r], c0, hi[0] - lo[0] + 1, cur, steps, sc[0], pen, hx)
         else:
             _dp_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
-                    steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
+                    steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen, hx)
         if ec[i] < np.inf:
             _scan_end(cur, hi[i] - lo[i] + 1, ec[i], i, lo[i], best, steps, off[i], i == lo.shape[0] - 1,
                       m)
 
 
 @njit(cache=True)
-def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen):
+def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx):
     # Whole DP with local cost from features: X (n, d), Yt (d, m) (Y transposed);
     # metric 0 squared Euclidean, 1 Euclidean.  Start / end costs as _dp_rows.
     n, d = X.shape
@@ -231,10 +239,10 @@ def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen):
                 c[k] = np.sqrt(c[k])
         cur = rows[i & 1]
         if i == 0:
-            _dp_first_row(crow, 0, w, cur, steps, sc[0], pen)
+            _dp_first_row(crow, 0, w, cur, steps, sc[0], pen, hx)
         else:
             _dp_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
-                    off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
+                    off[i], sc[i], sc[0] < np.inf, off[i - 1], pen, hx)
         if ec[i] < np.inf:
             _scan_end(cur, w, ec[i], i, L, best, steps, off[i], i == n - 1, Yt.shape[1])
 
@@ -329,7 +337,7 @@ def end_costs(band: Band, open_begin: bool, open_end: bool, uncovered_cost: floa
     return start, end
 
 
-def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0):
+def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0, hw=1.0):
     if open_end:
         cost, iend, jend = float(best[0]), int(best[1]), int(best[2])
     else:
@@ -342,7 +350,7 @@ def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0):
     path = _backtrack(lo, off, steps, iend, jend)
     return DTWResult(path=path, cost=cost, band=band, covered=(int(path[0, 0]), int(path[-1, 0])),
                      open_begin=bool(open_begin), open_end=bool(open_end), uncovered_cost=float(u),
-                     step_penalty=float(pen))
+                     step_penalty=float(pen), horizontal_weight=float(hw))
 
 
 def _penalty(step_penalty) -> float:
@@ -350,6 +358,13 @@ def _penalty(step_penalty) -> float:
     if not (p >= 0 and np.isfinite(p)):
         raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
     return p
+
+
+def _hweight(horizontal_weight) -> float:
+    w = float(horizontal_weight)
+    if not (0.0 < w <= 1.0):
+        raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
+    return w
 
 
 def _check_costs(block, what):
@@ -360,7 +375,7 @@ def _check_costs(block, what):
 
 
 def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
-        uncovered_cost: float = 0.0, step_penalty: float = 0.0) -> DTWResult:
+        uncovered_cost: float = 0.0, step_penalty: float = 0.0, horizontal_weight: float = 1.0) -> DTWResult:
     """Banded DTW with path, on given local costs.
 
     Parameters
@@ -390,6 +405,12 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
         >= 0), so where the costs are flat (a still arm) the path keeps the current speed
         instead of wandering, and unrelated material is harder to fit by warping.  Included
         in ``cost``.  0 is the paper's recurrence.
+    horizontal_weight : float, default 1
+        Beyond the paper: a cell entered by a ``(i, j-1)`` step (one more hands frame for the
+        same body row) counts this fraction of its local cost, in ``(0, 1]``.  With open ends
+        a full weight rewards a path for skipping hands material wherever the hands take is
+        slower than the body (each extra hands frame costs a whole cell); 0.3 measures better
+        (:data:`splicer.openend.OPEN_HORIZONTAL_WEIGHT`).  1 is the paper's recurrence.
 
     Returns
     -------
@@ -415,6 +436,7 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
     n, m = band.n, band.m
     sc, ec = end_costs(band, open_begin, open_end, uncovered_cost)
     pen = _penalty(step_penalty)
+    hx = _hweight(horizontal_weight) - 1.0
     lo, hi, off, wmax, steps, rows = _workspace(band)
     best = np.array([np.inf, -1.0, -1.0])
     if callable(cost):
@@ -429,19 +451,20 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
             # only the band part of each row is checked (padding is ignored)
             mask = np.arange(wmax)[None, :] <= (hi[i0:i1] - lo[i0:i1])[:, None]
             _check_costs(np.where(mask, block, 0.0), f"rows {i0}..{i1 - 1}")
-            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, m)
+            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m)
     else:
         c = np.asarray(cost)
         if c.shape != (n, m):
             raise ValueError(f"cost matrix must have shape (n, m) = ({n}, {m}), got {c.shape}")
         c = np.ascontiguousarray(c, dtype=np.float64)
         _check_costs(c, "matrix")
-        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, m)
-    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen)
+        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0)
 
 
 def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: bool = False,
-                 open_end: bool = False, uncovered_cost: float = 0.0, step_penalty: float = 0.0) -> DTWResult:
+                 open_end: bool = False, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
+                 horizontal_weight: float = 1.0) -> DTWResult:
     """Banded DTW with path, local cost computed on the fly from feature vectors.
 
     Parameters
@@ -454,7 +477,7 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
         Admissible cells, with ``band.n == n`` and ``band.m == m``.
     metric : {"sqeuclidean", "euclidean"}
         Local cost: squared Euclidean distance (units of X squared) or Euclidean distance.
-    open_begin, open_end, uncovered_cost, step_penalty
+    open_begin, open_end, uncovered_cost, step_penalty, horizontal_weight
         As :func:`dtw`.
 
     Returns
@@ -487,10 +510,11 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
             raise ValueError(f"{name} contains NaN or inf")
     sc, ec = end_costs(band, open_begin, open_end, uncovered_cost)
     pen = _penalty(step_penalty)
+    hx = _hweight(horizontal_weight) - 1.0
     Xc = np.ascontiguousarray(X)
     Yt = np.ascontiguousarray(Y.T)
     lo, hi, off, wmax, steps, rows = _workspace(band)
     crow = np.empty(wmax)
     best = np.array([np.inf, -1.0, -1.0])
-    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen)
-    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen)
+    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0)

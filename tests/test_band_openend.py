@@ -63,7 +63,8 @@ def test_guided_band_open_ends_follow_a_partial_coarse_path():
 def test_uncovered_penalty_and_coarse_rate():
     c = np.array([[0.0, 1.0, 2.0, 3.0], [4.0, 5.0, np.inf, 6.0]])
     assert uncovered_penalty(c, 0.5) == pytest.approx(3.0)   # inf ignored: median of 0..6
-    assert uncovered_penalty(np.arange(10.0), 0.1, max_samples=5) == uncovered_penalty(np.arange(10.0), 0.1, max_samples=5)
+    sub = uncovered_penalty(np.arange(100.0), 0.5, max_samples=10, seed=1)   # a seeded subset
+    assert sub != 49.5 and sub == uncovered_penalty(np.arange(100.0), 0.5, max_samples=10, seed=1)
     with pytest.raises(ValueError, match="quantile"):
         uncovered_penalty(c, 1.0)
     with pytest.raises(ValueError, match="finite"):

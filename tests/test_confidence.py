@@ -19,12 +19,14 @@ def rng():
     return np.random.default_rng(4242)
 
 
-def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0):
-    """fwd + bwd - c on the full matrix, each filled by explicit loops (bwd directly, not by reversal).
+def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0, hw=1.0):
+    """fwd + bwd on the full matrix, each filled by explicit loops.
 
-    fwd: start at (0, 0) (fixed) or (open) on row 0 or column 0 in rows <= first pin at u * i,
-    no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.  bwd: the mirror image: end
-    at (n-1, m-1) or on row n-1 or column m-1 in rows >= last pin at u * (n-1-i), no step
+    fwd[i, j]: cheapest prefix ending at (i, j), own cost included (hw * C when entered by a
+    (i, j-1) step); starts at (0, 0) (fixed) or (open) on row 0 or column 0 in rows <= first
+    pin at u * i, no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.
+    bwd[i, j]: cheapest suffix from (i, j), own cost excluded; ends at (n-1, m-1) (fixed) or
+    (open) on row n-1 or column m-1 in rows >= last pin at u * (n-1-i), no step
     (i, m-1) -> (i+1, m-1) into a cell whose best is an end."""
     n, m = C.shape
     last_start = cons[0].x if cons else n - 1
@@ -41,7 +43,7 @@ def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0):
             if i > 0 and not (ob and j == 0 and fst[i - 1, j]):
                 best = min(best, f[i - 1, j] + pen)
             if j > 0:
-                best = min(best, f[i, j - 1] + pen)
+                best = min(best, f[i, j - 1] + pen + (hw - 1) * C[i, j])
             s = ((u * i if i <= last_start and (i == 0 or j == 0) else np.inf) if ob
                  else (0.0 if (i, j) == (0, 0) else np.inf))
             if s < best:
@@ -54,19 +56,18 @@ def ref_through(C, mask, ob, oe, u, cons=(), pen=0.0):
             if not mask[i, j]:
                 continue
             best = np.inf
-            if i < n - 1 and j < m - 1:
-                best = min(best, b[i + 1, j + 1])
-            if i < n - 1 and not (oe and j == m - 1 and bst[i + 1, j]):
-                best = min(best, b[i + 1, j] + pen)
-            if j < m - 1:
-                best = min(best, b[i, j + 1] + pen)
+            if i < n - 1 and j < m - 1 and mask[i + 1, j + 1]:
+                best = min(best, b[i + 1, j + 1] + C[i + 1, j + 1])
+            if i < n - 1 and mask[i + 1, j] and not (oe and j == m - 1 and bst[i + 1, j]):
+                best = min(best, b[i + 1, j] + pen + C[i + 1, j])
+            if j < m - 1 and mask[i, j + 1]:
+                best = min(best, b[i, j + 1] + pen + hw * C[i, j + 1])
             e = ((u * (n - 1 - i) if i >= first_end and (i == n - 1 or j == m - 1) else np.inf) if oe
                  else (0.0 if (i, j) == (n - 1, m - 1) else np.inf))
             if e < best:
                 best, bst[i, j] = e, True
-            b[i, j] = C[i, j] + best
-    with np.errstate(invalid="ignore"):
-        return np.where(mask, f + b - C, np.inf)
+            b[i, j] = best
+    return np.where(mask, f + b, np.inf)
 
 
 @pytest.mark.parametrize("ends", [(False, False), (True, False), (False, True), (True, True)])
@@ -77,14 +78,16 @@ def test_through_costs_match_reference(rng, ends, n, m):
         C = rng.random((n, m)) * 3
         u = float(rng.choice([0.0, 0.5, 2.0]))
         pen = float(rng.choice([0.0, 0.3]))
+        hw = float(rng.choice([1.0, 0.5]))
         cons = random_constraints(rng, n, m, int(rng.integers(0, 3)), int(rng.integers(0, 2)))
         try:
             band = full_band(n, m, cons, open_begin=ob, open_end=oe) if trial % 2 else make_band(n, m, 6.0, cons)
         except Exception:
             continue
-        ref = ref_through(C, band_mask(band), ob, oe, u, band.constraints, pen)
+        ref = ref_through(C, band_mask(band), ob, oe, u, band.constraints, pen, hw)
         for cost in (C, as_callable(C, band)):
-            through, _ = through_costs(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen)
+            through, _ = through_costs(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen,
+                                       horizontal_weight=hw)
             for i in range(n):
                 cols, vals = through(i)
                 np.testing.assert_allclose(vals, ref[i, cols], rtol=1e-5, atol=1e-4)
@@ -109,8 +112,10 @@ def test_row_minimum_is_the_optimum_on_covered_rows(rng, ends):
     n, m = 40, 55
     C = rng.random((n, m))
     band = full_band(n, m, open_begin=ends[0], open_end=ends[1]) if ends[0] else make_band(n, m, 30.0)
-    res = dtw(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3, step_penalty=0.1)
-    through, _ = through_costs(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3, step_penalty=0.1)
+    res = dtw(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3, step_penalty=0.1,
+              horizontal_weight=0.5)
+    through, _ = through_costs(C, band, open_begin=ends[0], open_end=ends[1], uncovered_cost=0.3, step_penalty=0.1,
+                               horizontal_weight=0.5)
     for i in range(res.covered[0], res.covered[1] + 1):
         _, vals = through(i)
         assert vals.min() == pytest.approx(res.cost, rel=1e-5)

@@ -24,7 +24,7 @@ def rng():
 
 # ------------------------------------------------------------------ slow reference
 
-def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0):
+def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0):
     """Full-matrix DTW with open ends, straight from the definition.
 
     Start: (0, 0) at cost 0 (fixed), or (open) any admissible (0, j) at cost 0 or (i, 0) with
@@ -34,7 +34,8 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0):
     no step (i-1, 0) -> (i, 0) out of a start cell, no end on column m-1 entered by a step
     (i-1, m-1) -> (i, m-1).
     Ties between candidates: diagonal, up, left, start (a later one must be strictly smaller).
-    ``pen`` is added to the up and left candidates.
+    ``pen`` is added to the up and left candidates; a cell entered from the left costs
+    ``hw * C`` (written ``C + (g + pen + (hw - 1) C)`` as the kernel adds it).
     """
     n, m = C.shape
     last_start = cons[0].x if cons else n - 1
@@ -48,7 +49,8 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0):
             up_ok = i > 0 and not (open_begin and j == 0 and step[i - 1, j] == 3)   # no hold out of a start
             cands = [(g[i - 1, j - 1] if i > 0 and j > 0 else np.inf, 0),
                      (g[i - 1, j] + pen if up_ok else np.inf, 1),
-                     (g[i, j - 1] + pen if j > 0 else np.inf, 2)]
+                     (g[i, j - 1] + pen + ((hw - 1) * C[i, j] if hw != 1 and C[i, j] < np.inf else 0.0)
+                      if j > 0 else np.inf, 2)]
             if open_begin and i <= last_start and (i == 0 or j == 0):
                 cands.append((u * i, 3))
             elif not open_begin and i == 0 and j == 0:
@@ -113,6 +115,7 @@ def test_open_ends_match_reference(rng, n, m, ends):
         C[rng.random((n, m)) < 0.05] = np.inf if trial % 3 == 0 else C[0, 0]
         u = float(rng.choice([0.0, 0.2, 0.5, 2.0]))
         pen = float(rng.choice([0.0, 0.0, 0.1, 0.7]))
+        hw = float(rng.choice([1.0, 1.0, 0.5, 0.2]))
         cons = random_constraints(rng, n, m, int(rng.integers(0, 3)), int(rng.integers(0, 3)))
         try:
             if trial % 2:
@@ -124,13 +127,13 @@ def test_open_ends_match_reference(rng, n, m, ends):
                 mask = ref_mask(n, m, W, band.constraints)
         except SplicerError:                  # infeasible random constraints
             continue
-        ref_cost, ref_path = ref_open_dtw(C, mask, ob, oe, u, band.constraints, pen)
+        ref_cost, ref_path = ref_open_dtw(C, mask, ob, oe, u, band.constraints, pen, hw)
         if ref_path is None:
             with pytest.raises(BandError, match="no path of finite cost"):
-                dtw(C, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen)
+                dtw(C, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw)
             continue
         for cost in (C, as_callable(C, band)):
-            res = dtw(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen)
+            res = dtw(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw)
             assert res.cost == pytest.approx(ref_cost, rel=1e-12, abs=1e-12)
             np.testing.assert_array_equal(res.path, ref_path)
             assert res.covered == (ref_path[0, 0], ref_path[-1, 0])
@@ -147,8 +150,9 @@ def test_features_kernel_matches_reference(rng, ends):
     X, Y = rng.normal(size=(n, 3)), rng.normal(size=(m, 3))
     band = full_band(n, m, open_begin=ob, open_end=oe)
     for metric, C in (("sqeuclidean", sqdist(X, Y)), ("euclidean", np.sqrt(sqdist(X, Y)))):
-        ref_cost, ref_path = ref_open_dtw(C, band_mask(band), ob, oe, 1.0, (), 0.25)
-        res = dtw_features(X, Y, band, metric, open_begin=ob, open_end=oe, uncovered_cost=1.0, step_penalty=0.25)
+        ref_cost, ref_path = ref_open_dtw(C, band_mask(band), ob, oe, 1.0, (), 0.25, 0.5)
+        res = dtw_features(X, Y, band, metric, open_begin=ob, open_end=oe, uncovered_cost=1.0, step_penalty=0.25,
+                           horizontal_weight=0.5)
         assert res.cost == pytest.approx(ref_cost, rel=1e-12)
         np.testing.assert_array_equal(res.path, ref_path)
 
@@ -201,6 +205,8 @@ def test_open_band_needs_open_ends(rng):
         dtw(C, band, open_begin=True, open_end=True, uncovered_cost=-1.0)
     with pytest.raises(ValueError, match="step_penalty"):
         dtw(C, band, open_begin=True, open_end=True, step_penalty=np.nan)
+    with pytest.raises(ValueError, match="horizontal_weight"):
+        dtw(C, band, open_begin=True, open_end=True, horizontal_weight=0.0)
     with pytest.raises(BandError, match="lo\\[0\\]"):
         Band(n=3, m=5, width=2.0, lo=np.array([1, 1, 2]), hi=np.array([2, 3, 4]))
 
@@ -364,7 +370,7 @@ def test_pass1_locates_the_body_inside_a_longer_take(sample_markers, seed):
         assert abs(res.path[0, 1] - pre) <= 1
         assert abs(res.path[-1, 1] - (pre + m_mid - 1)) <= 3     # D1's edge effect at the body's last frames
         err = np.abs(path_median(res.path, n) - truth)
-        assert err.mean() < 1.0 and np.quantile(err, 0.95) < 3.0
+        assert err.mean() < 1.0 and np.quantile(err, 0.95) < 4.0
         assert res.uncovered_cost > 0
     fixed = pass1(body, hands, width=30.0)        # the paper's fixed ends: forced through the extra material
     assert np.abs(path_median(fixed.path, n) - truth).mean() > 10 * err.mean()

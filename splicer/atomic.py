@@ -173,6 +173,12 @@ class Transaction:
         if len(os.fsencode(dest.name)) > _NAME_MAX:
             raise err(f"cannot write the {what}: the file name is {len(dest.name)} characters long, "
                       f"more than a file system allows ({_NAME_MAX} bytes)")
+        try:
+            st = os.stat(dest)
+        except OSError:
+            st = None
+        if st is not None and not stat.S_ISREG(st.st_mode):  # never replace /dev/null, a FIFO...
+            raise err(f"cannot write the {what}: the path exists and is not a regular file")
         directory = dest.parent
         _remove_stale(dest)
         tmp = str(directory / f".{dest.name[:_STEM_CHARS]}.splice-{os.getpid()}-{secrets.token_hex(4)}.tmp")

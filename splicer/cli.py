@@ -124,6 +124,9 @@ def _check_output(path: Path, inputs) -> None:
         raise SplicerError(f"{path}: cannot write the output: folder {parent} does not exist")
     if path.is_dir():
         raise SplicerError(f"{path}: is a folder; give a file name for the output")
+    if path.exists() and not path.is_file():
+        raise SplicerError(f"{path}: exists and is not a regular file (a device or a pipe); give a file name "
+                           "for the output")
     if not os.access(parent, os.W_OK):
         raise SplicerError(f"{path}: cannot write the output: folder {parent} is not writable")
 

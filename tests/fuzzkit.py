@@ -3,7 +3,7 @@ and benchmarks/fuzz_nightly.py.
 
 A case is a set of small input files (BVH takes of a few dozen frames, a constraints file)
 and an argument list; one to three seeded mutations are applied to a file or to the options.
-Cases run in this process through :func:`splicer.cli.main` -- inside a forked worker with a
+Cases run in-process through :func:`splicer.cli.main` -- inside a worker process with a
 memory cap (``RLIMIT_AS``) and a per-case time limit (``SIGALRM``); a worker that dies or stops
 answering is replaced and its case classified.  Classes:
 
@@ -401,6 +401,9 @@ def run_case(case: Case, root: str) -> tuple[str, str]:
 
 
 def _worker(cases, start, conn):
+    import splicer.cli  # noqa: F401 - the address space measured below includes the libraries
+    import splicer.splice  # noqa: F401
+
     signal.signal(signal.SIGALRM, _on_alarm)
     now = _address_space()
     if now:
@@ -429,8 +432,12 @@ def _address_space() -> int:
 
 
 def run_cases(cases: list[Case]) -> list[tuple[str, str]]:
-    """Run every case in forked workers (restarted after a crash or a hang); (class, detail) each."""
-    ctx = mp.get_context("fork")
+    """Run every case in worker processes (restarted after a crash or a hang); (class, detail) each.
+
+    Workers are started with "spawn", not "fork": a process that has run a splice has started
+    numba's OpenMP thread pool, and a forked child using it is terminated by libgomp.
+    """
+    ctx = mp.get_context("spawn")
     results: list = [None] * len(cases)
     start = 0
     while start < len(cases):

@@ -408,6 +408,22 @@ def test_output_equal_to_an_input_is_refused(tmp_path, takes, how):
     assert body.read_bytes() == before
 
 
+@pytest.mark.parametrize("dest", ["/dev/null", "fifo"])
+def test_output_that_is_a_device_or_a_pipe_is_refused(tmp_path, takes, dest):
+    """As root, renaming onto /dev/null would replace the device node with a regular file."""
+    body, hands = takes
+    if dest == "fifo":
+        dest = tmp_path / "fifo"
+        os.mkfifo(dest)
+    _refused(tmp_path, [body, hands, "-o", dest, "-q"], "exists and is not a regular file")
+    assert os.path.exists("/dev/null") and not os.path.isfile("/dev/null")
+    from splicer.atomic import write_atomic
+    from splicer.errors import SplicerError
+
+    with pytest.raises(SplicerError, match="is not a regular file"):
+        write_atomic(dest, lambda f: f.write(b"x"))
+
+
 def test_missing_output_folder(tmp_path, takes):
     body, hands = takes
     _refused(tmp_path, [body, hands, "-o", tmp_path / "no" / "o.bvh", "-q"], "does not exist")

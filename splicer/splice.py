@@ -315,9 +315,10 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         if opts.wrist == "hands":
             if harm.elbow is None:
                 raise SplicerError(f"{hm.source or 'hands'}: --wrist hands needs a forearm joint above the {s} wrist in the hands file")
-            fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj)
+            fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj, fmap.bones)  # b-handgeom: bones
         sub = sorted({j for g in fmap.hands for j in g})
-        local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj)
+        local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj,
+                          fmap.bones)  # b-handgeom: fmap.bones carried
         hq = hm.joint_rotations(sub)
         if opts.merge == "timemap":
             tm = smooth_time_map(hands_frames, sigma_frames=opts.timemap_sigma_s * bm.fps, last=last, pins=pins)

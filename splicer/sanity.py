@@ -218,17 +218,25 @@ def finger_sanity(motion: Motion, arm: ArmRoles, chirality: int) -> dict:
     return out
 
 
-def sanity_warnings(report: dict, where: str) -> list[str]:
-    """Warning lines for the fingers of ``report`` (from :func:`finger_sanity`) above the thresholds."""
+def sanity_warnings(report: dict, where: str, source: dict | None = None) -> list[str]:
+    """Warning lines for the fingers of ``report`` (from :func:`finger_sanity`) above the thresholds.
+
+    ``source``, the same summary of the hands capture (over the hands frames the output shows),
+    is quoted beside each figure so that a reader sees whether the splice or the capture bends
+    the finger so.
+    """
     out = []
     for finger, r in report.items():
         if finger.startswith("_"):
             continue
+        src = (source or {}).get(finger)
+        kind = "thumb" if finger == "thumb" else "finger"
         if r["backward"] > WARN_BACKWARD:
-            kind = "thumb" if finger == "thumb" else "finger"
+            also = f" (the hands capture, same frames: {100 * src['backward']:.0f}%)" if src else ""
             out.append(f"{where}: the {finger} finger bends backwards (beyond {HYPEREXTENSION_DEG[kind]:g} deg of "
-                       f"hyperextension, up to {r['backward_max_deg']:g} deg) in {100 * r['backward']:.0f}% of frames")
+                       f"hyperextension, up to {r['backward_max_deg']:g} deg) in {100 * r['backward']:.0f}% of frames{also}")
         elif r["out_of_range"] > WARN_OUT_OF_RANGE:
+            also = f" (the hands capture, same frames: {100 * src['out_of_range']:.0f}%)" if src else ""
             out.append(f"{where}: the {finger} finger leaves the anatomical joint ranges in "
-                       f"{100 * r['out_of_range']:.0f}% of frames")
+                       f"{100 * r['out_of_range']:.0f}% of frames{also}")
     return out

@@ -348,8 +348,14 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         # --- b-handgeom: finger sanity of the output (splicer.sanity) ---
         hand_read = handedness_report["body"].get(s, {}).get("geometric") or s
         san = finger_sanity(out, barm, +1 if hand_read == "right" else -1)
+        src_read = handedness_report["hands"][s]["geometric"] or s
+        if handedness_report["mirrored"]:
+            src_read = "left" if src_read == "right" else "right"
+        used = hm.with_channels(hm.channels[np.clip(np.round(tm).astype(np.int64), 0, hm.n_frames - 1)])
+        src_san = finger_sanity(used, harm, +1 if src_read == "right" else -1)  # the hands frames the output shows
         report_sides[s]["finger_sanity"] = san
-        for w in sanity_warnings(san, f"{s} side, output"):
+        report_sides[s]["finger_sanity_hands"] = src_san
+        for w in sanity_warnings(san, f"{s} side, output", src_san):
             note(w)
         # --- end b-handgeom ---
     timings["total"] = time.perf_counter() - t_start

@@ -139,6 +139,10 @@ def test_manipnet_hands_bend_like_the_original_capture(body, side):
     src = finger_sanity(hands, arm, +1 if h["geometric"] == "right" else -1)
     out = r.report["sides"][side]["finger_sanity"]
     bad = unfixed.report["sides"][side]["finger_sanity"]
+    same = r.report["sides"][side]["finger_sanity_hands"]  # the source over the frames the output shows
     for f in ("index", "middle", "ring", "pinky"):
         assert out[f]["backward"] <= src[f]["backward"] + 0.01, (f, out[f], src[f])
+    for f in ("thumb", "index", "middle", "ring", "pinky"):
+        assert out[f]["backward"] <= same[f]["backward"] + 0.01, (f, out[f], same[f])
+        assert out[f]["out_of_range"] <= same[f]["out_of_range"] + 0.2, (f, out[f], same[f])
     assert bad["middle"]["backward"] > 0.5  # as reported in the issue: 64-89 % without the fix

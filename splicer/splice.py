@@ -30,8 +30,8 @@ from .model import Motion
 from .roles import FINGERS, SIDES, find_roles
 from .sanity import finger_sanity, sanity_warnings  # b-handgeom
 from .timewarp import sample_rotations
-from .upaxis import detect_up  # b-handgeom
 from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
+from .upaxis import detect_up  # b-handgeom
 
 __all__ = ["SpliceOptions", "SideResult", "SpliceResult", "splice"]
 

@@ -23,7 +23,7 @@ from .constraints import SpliceConfig, frame_number, read_config
 from .dtw import Constraint, band_frames
 from .errors import ConstraintError, SplicerError, SplicerWarning
 from .handedness import resolve_handedness  # b-handgeom
-from .handgeom import graft_scale  # b-handgeom
+from .handgeom import graft_scale, hand_frame_warnings  # b-handgeom
 from .markers import Markers, arm_markers
 from .merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
 from .model import Motion
@@ -357,6 +357,10 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         report_sides[s]["finger_sanity_hands"] = src_san
         for w in sanity_warnings(san, f"{s} side, output", src_san):
             note(w)
+        if fmap.body:
+            for w in (hand_frame_warnings(out.skeleton, barm, bm.source or "body")
+                      + hand_frame_warnings(hm.skeleton, harm, hm.source or "hands")):
+                note(w)
         # --- end b-handgeom ---
     timings["total"] = time.perf_counter() - t_start
     report = {

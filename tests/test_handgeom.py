@@ -151,3 +151,14 @@ def test_a_rig_with_non_parallel_rest_bones_transfers_the_same_finger_positions(
     pa, pb = global_transforms(a.motion, fj)[1], global_transforms(b.motion, fj)[1]
     np.testing.assert_allclose(pb, pa, atol=1e-6)   # cm
 
+
+
+def test_a_guessed_hand_frame_is_reported():
+    from splicer.handgeom import hand_frame_warnings
+
+    sk = _cmu_like()
+    arm = find_roles(sk).sides["right"]
+    assert hand_frame_warnings(sk, arm, "cmu.bvh") == []          # fingers and thumb give both axes
+    no_thumb = ArmRoles("right", arm.wrist, arm.elbow, arm.upper_arm, {"hand": arm.fingers["hand"]})
+    (w,) = hand_frame_warnings(sk, no_thumb, "cmu.bvh")
+    assert w.startswith("cmu.bvh: the right hand's rest frame is a guess (long axis from finger bases, radial axis from none")

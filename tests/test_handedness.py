@@ -146,3 +146,21 @@ def test_manipnet_hands_bend_like_the_original_capture(body, side):
         assert out[f]["backward"] <= same[f]["backward"] + 0.01, (f, out[f], same[f])
         assert out[f]["out_of_range"] <= same[f]["out_of_range"] + 0.2, (f, out[f], same[f])
     assert bad["middle"]["backward"] > 0.5  # as reported in the issue: 64-89 % without the fix
+
+
+def test_a_hand_without_an_across_the_palm_axis_is_left_undecided(sep):
+    from splicer.model import Motion, Skeleton
+
+    hands = sep.hand_only["right"]
+    arm = find_roles(hands.skeleton, source=hands.source).sides["right"]
+    sk = hands.skeleton
+    offs = np.array(sk.offsets)
+    for chain in arm.fingers.values():
+        offs[chain[0]] = 0.0  # every finger base at the wrist: no knuckle line
+    flat = Motion(Skeleton(sk.names, sk.parents, offs, sk.channels, sk.end_sites), hands.channels, hands.frame_time,
+                  hands.source)
+    h = hand_handedness(flat, arm)
+    assert (h.geometric, h.status) == (None, "no axis")
+    r = splice(sep.body, flat)
+    assert not r.report["handedness"]["mirrored"]
+    assert any("across-the-palm" in w for w in r.report["warnings"])

@@ -183,11 +183,13 @@ def finger_sanity(motion: Motion, arm: ArmRoles, chirality: int) -> dict:
     dict
         ``{finger: {"backward": share, "backward_max_deg": deg, "out_of_range": share,
         "dip_pip_deg": deg or None, "joints": {joint: {"min_deg", "max_deg"}}}, ...}`` plus
-        ``"_reading": "right" | "left"``.  Shares are fractions of frames (0..1).
+        ``"_reading": "right" | "left"`` and ``"_frame"`` (how the hand frame was found).  Shares
+        are fractions of frames (0..1).
     """
     fa = finger_angles(motion, arm, chirality)
     T = motion.n_frames
-    out: dict = {"_reading": "right" if chirality > 0 else "left"}
+    _, how = hand_frame(motion.skeleton, arm, explain=True)
+    out: dict = {"_reading": "right" if chirality > 0 else "left", "_frame": how}
     for finger, ang in fa.angles.items():
         kind = "thumb" if finger == "thumb" else "finger"
         hinge = ("IP",) if kind == "thumb" else ("PIP", "DIP")
@@ -226,6 +228,8 @@ def sanity_warnings(report: dict, where: str, source: dict | None = None) -> lis
     the finger so.
     """
     out = []
+    if "assumed" in report.get("_frame", ""):
+        return out  # angles about a guessed axis: no verdict (the splice warns about the guess)
     for finger, r in report.items():
         if finger.startswith("_"):
             continue

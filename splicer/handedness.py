@@ -53,7 +53,8 @@ class Handedness:
         ``"right"`` or ``"left"`` by geometry; None when undecided.
     status : str
         ``"flexion"`` (decided by finger flexion), ``"thumb"`` (weak static cue),
-        ``"contradictory"`` (flexion votes disagree) or ``"no evidence"``.
+        ``"contradictory"`` (flexion votes disagree), ``"no axis"`` (no across-the-palm axis
+        to tell the palm side by) or ``"no evidence"``.
     right_share : float or None
         Share of the flexion votes for a right hand.
     votes : int
@@ -76,6 +77,8 @@ class Handedness:
         if self.status == "contradictory":
             return (f"undecided: the fingers flex toward a right hand's palm in {100 * self.right_share:.0f}% and a "
                     f"left hand's in {100 * (1 - self.right_share):.0f}% of {self.votes} bending finger-frames")
+        if self.status == "no axis":
+            return "undecided: the hand has no across-the-palm axis (index/thumb and pinky/ring bases)"
         return "undecided: the fingers hardly bend and the thumb sits in the knuckle plane"
 
     def as_dict(self) -> dict:
@@ -98,6 +101,9 @@ def _thumb_cue(sk: Skeleton, arm: ArmRoles) -> str | None:
 
 def hand_handedness(motion: Motion, arm: ArmRoles) -> Handedness:
     """Geometric handedness of one hand of ``motion`` (see the module docstring)."""
+    _, how = hand_frame(motion.skeleton, arm, explain=True)
+    if "radial axis from none" in how:  # no across-the-palm axis: the palm side means nothing
+        return Handedness(arm.side, None, "no axis", None, 0)
     fa = finger_angles(motion, arm, +1)
     votes = []
     for finger in ("index", "middle", "ring", "pinky"):

@@ -24,8 +24,8 @@ from .kinematics import rest_positions
 from .model import Skeleton
 from .roles import ArmRoles
 
-__all__ = ["same_anatomical_joint", "finger_anchors", "hand_points", "hand_frame", "hand_length", "forearm_length", "GraftScale",
-           "graft_scale", "HAND_PER_FOREARM"]
+__all__ = ["same_anatomical_joint", "finger_anchors", "hand_points", "hand_frame", "hand_frame_warnings", "hand_length",
+           "forearm_length", "GraftScale", "graft_scale", "HAND_PER_FOREARM"]
 
 #: wrist -> middle-finger knuckle in forearm (elbow -> wrist) lengths: about 10 cm for 26 cm
 #: (adult averages, e.g. NASA-STD-3000 anthropometry); used only when nothing else compares
@@ -166,6 +166,15 @@ def hand_frame(sk: Skeleton, arm: ArmRoles, *, explain: bool = False):
     if explain:
         return frame, f"long axis from {how_u}, radial axis from {how_v}"
     return frame
+
+
+def hand_frame_warnings(sk: Skeleton, arm: ArmRoles, where: str) -> list[str]:
+    """A warning line when :func:`hand_frame` had to assume an axis (the finger rotations are then
+    carried over about a guessed axis), else nothing."""
+    _, how = hand_frame(sk, arm, explain=True)
+    if "assumed" not in how:
+        return []
+    return [f"{where}: the {arm.side} hand's rest frame is a guess ({how}); its finger rotations may be turned"]
 
 
 @dataclass(frozen=True)

@@ -424,19 +424,33 @@ class Transfer:
     extra: dict = field(default_factory=dict)  # JSON-ready report keys (e.g. the graft scale)
 
 
-def check_fingers(transfer: Transfer, side: str, handedness: dict, log: Log | None = None) -> dict:
-    """Finger sanity of the output (:mod:`splicer.sanity`): backward bending, joint ranges, DIP/PIP.
+def check_fingers(transfer: Transfer, side: str, inputs: Inputs, rig: Rig, tm: np.ndarray, handedness: dict,
+                  log: Log | None = None) -> dict:
+    """Finger sanity (:mod:`splicer.sanity`): backward bending, joint ranges, DIP/PIP, of the output
+    and of the hands frames it shows (read as the hand it really is), and odd hand frames.
 
-    Returns the JSON-ready summary and adds a warning per finger above the thresholds.
+    Returns the JSON-ready report keys and adds a warning per finger that bends worse than its source.
     """
+    from .handgeom import hand_frame_warnings
     from .sanity import finger_sanity, sanity_warnings
 
     log = log or Log()
+    hm, harm = inputs.hands, rig.hands.sides[side]
     reading = handedness.get("body", {}).get(side, {}).get("geometric") or side
     san = finger_sanity(transfer.motion, transfer.arm, +1 if reading == "right" else -1)
-    for w in sanity_warnings(san, f"{side} side, output"):
+    src_read = handedness.get("hands", {}).get(side, {}).get("geometric") or side
+    if handedness.get("mirrored"):
+        src_read = "left" if src_read == "right" else "right"
+    shown = np.isfinite(tm)
+    frames = np.clip(np.round(tm[shown]).astype(np.int64), 0, hm.n_frames - 1)
+    src_san = finger_sanity(hm.with_channels(hm.channels[frames]), harm, +1 if src_read == "right" else -1)
+    for w in sanity_warnings(san, f"{side} side, output", src_san):
         log.note(w)
-    return san
+    if transfer.joints:
+        for w in (hand_frame_warnings(transfer.motion.skeleton, transfer.arm, inputs.body.source or "body")
+                  + hand_frame_warnings(hm.skeleton, harm, hm.source or "hands")):
+            log.note(w)
+    return {"finger_sanity": san, "finger_sanity_hands": src_san}
 
 
 def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: Alignment, tm: np.ndarray,
@@ -474,9 +488,9 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
                                "wrist in the hands file")
         for msg in wrist_source_notes(hm, harm, forearm):
             log.note(msg)
-        fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj)
+        fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj, fmap.bones)
     sub = sorted({j for g in fmap.hands for j in g})
-    local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj)
+    local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj, fmap.bones)
     hq = hm.joint_rotations(sub)
     covered = np.flatnonzero(np.isfinite(tm))
     tm = np.interp(np.arange(len(tm)), covered, tm[covered])  # uncovered frames: the nearest covered one
@@ -666,9 +680,9 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
         alignment = align_side(markers, opts, log)
         tm = time_map(alignment, markers, opts)
         transfer = transfer_side(out, inputs, rig, s, alignment, tm, opts, log, pins=markers.pins)
-        sanity = check_fingers(transfer, s, checked.report["handedness"], log)
+        sanity = check_fingers(transfer, s, inputs, rig, tm, checked.report["handedness"], log)
         out = transfer.motion
-        sides[s] = SideResult(s, tm, markers, alignment, transfer.joints, {**transfer.extra, "finger_sanity": sanity})
+        sides[s] = SideResult(s, tm, markers, alignment, transfer.joints, {**transfer.extra, **sanity})
     report = build_report(inputs, opts, sides, log,
                           extra={**checked.report, "up": {k: u.as_dict() for k, u in rig.up.items()}})
     log.progress("done", 1.0)

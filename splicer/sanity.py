@@ -183,11 +183,13 @@ def finger_sanity(motion: Motion, arm: ArmRoles, chirality: int) -> dict:
     dict
         ``{finger: {"backward": share, "backward_max_deg": deg, "out_of_range": share,
         "dip_pip_deg": deg or None, "joints": {joint: {"min_deg", "max_deg"}}}, ...}`` plus
-        ``"_reading": "right" | "left"``.  Shares are fractions of frames (0..1).
+        ``"_reading": "right" | "left"`` and ``"_frame"`` (how the hand frame was found).  Shares
+        are fractions of frames (0..1).
     """
     fa = finger_angles(motion, arm, chirality)
     T = motion.n_frames
-    out: dict = {"_reading": "right" if chirality > 0 else "left"}
+    _, how = hand_frame(motion.skeleton, arm, explain=True)
+    out: dict = {"_reading": "right" if chirality > 0 else "left", "_frame": how}
     for finger, ang in fa.angles.items():
         kind = "thumb" if finger == "thumb" else "finger"
         hinge = ("IP",) if kind == "thumb" else ("PIP", "DIP")
@@ -218,17 +220,27 @@ def finger_sanity(motion: Motion, arm: ArmRoles, chirality: int) -> dict:
     return out
 
 
-def sanity_warnings(report: dict, where: str) -> list[str]:
-    """Warning lines for the fingers of ``report`` (from :func:`finger_sanity`) above the thresholds."""
+def sanity_warnings(report: dict, where: str, source: dict | None = None) -> list[str]:
+    """Warning lines for the fingers of ``report`` (from :func:`finger_sanity`) above the thresholds.
+
+    ``source``, the same summary of the hands capture (over the hands frames the output shows),
+    is quoted beside each figure so that a reader sees whether the splice or the capture bends
+    the finger so.
+    """
     out = []
+    if "assumed" in report.get("_frame", ""):
+        return out  # angles about a guessed axis: no verdict (the splice warns about the guess)
     for finger, r in report.items():
         if finger.startswith("_"):
             continue
+        src = (source or {}).get(finger)
+        kind = "thumb" if finger == "thumb" else "finger"
         if r["backward"] > WARN_BACKWARD:
-            kind = "thumb" if finger == "thumb" else "finger"
+            also = f" (the hands capture, same frames: {100 * src['backward']:.0f}%)" if src else ""
             out.append(f"{where}: the {finger} finger bends backwards (beyond {HYPEREXTENSION_DEG[kind]:g} deg of "
-                       f"hyperextension, up to {r['backward_max_deg']:g} deg) in {100 * r['backward']:.0f}% of frames")
+                       f"hyperextension, up to {r['backward_max_deg']:g} deg) in {100 * r['backward']:.0f}% of frames{also}")
         elif r["out_of_range"] > WARN_OUT_OF_RANGE:
+            also = f" (the hands capture, same frames: {100 * src['out_of_range']:.0f}%)" if src else ""
             out.append(f"{where}: the {finger} finger leaves the anatomical joint ranges in "
-                       f"{100 * r['out_of_range']:.0f}% of frames")
+                       f"{100 * r['out_of_range']:.0f}% of frames{also}")
     return out

@@ -22,7 +22,7 @@ from .handgeom import hand_frame as _robust_hand_frame
 from .kinematics import rest_positions
 from .model import Motion, Skeleton, preorder
 from .roles import FINGERS, ArmRoles
-from .rotations import quat_angle_deg, quat_between, quat_conj, quat_from_matrix, quat_mul, quat_to_matrix
+from .rotations import quat_angle_deg, quat_between, quat_conj, quat_from_matrix, quat_mul, quat_rotate, quat_to_matrix
 
 __all__ = ["FingerMap", "finger_map", "hand_frame", "graft_fingers"]
 
@@ -39,11 +39,15 @@ class FingerMap:
         For each body joint, the hands joints whose local rotations are composed (parent first).
     conj : np.ndarray [shape=(4,)]
         ``C``: rotation taking the hands' rest hand frame onto the body's.
+    bones : dict of int to (np.ndarray, np.ndarray), optional
+        Per body joint, ``(A_parent, A)``: the rest rotations taking the body's bones onto the
+        hands' bones (see :func:`finger_map`); missing joints use the identity.
     """
 
     body: tuple[int, ...]
     hands: tuple[tuple[int, ...], ...]
     conj: np.ndarray
+    bones: dict | None = None  # b-handgeom
 
 
 def _segments(sk: Skeleton, chain: tuple[int, ...], rest: np.ndarray) -> list[tuple[int, ...]]:
@@ -71,13 +75,16 @@ def finger_map(body_sk: Skeleton, body_arm: ArmRoles, hands_sk: Skeleton, hands_
     rb, rh = rest_positions(body_sk), rest_positions(hands_sk)
     body_joints: list[int] = []
     hands_groups: list[tuple[int, ...]] = []
+    runs: list[list[int]] = []  # per finger, the indices of its pairs (base first)
     for finger in FINGERS:
         if finger not in body_arm.fingers or finger not in hands_arm.fingers:
             continue
         bsegs = [s[0] for s in _segments(body_sk, body_arm.fingers[finger], rb)]
         hsegs = _segments(hands_sk, hands_arm.fingers[finger], rh)
+        runs.append([])
         for bj, hg in zip(bsegs, hsegs):
             if len(body_sk.rotation_columns(bj)) == 3:
+                runs[-1].append(len(body_joints))
                 body_joints.append(bj)
                 hands_groups.append(hg)
     # a coarse body hand (CMU: LeftFingerBase -> LFingers, one generic finger) follows the hands'
@@ -90,12 +97,61 @@ def finger_map(body_sk: Skeleton, body_arm: ArmRoles, hands_sk: Skeleton, hands_
             chain = body_arm.fingers["hand"]
             sub = chain[chain.index(anchor[0]):]
             bsegs = [sub[0]] + [s[0] for s in _segments(body_sk, sub, rb)[1:]]
+            runs.append([])
             for bj, hg in zip(bsegs, _segments(hands_sk, hands_arm.fingers[src], rh)):
                 if len(body_sk.rotation_columns(bj)) == 3:
+                    runs[-1].append(len(body_joints))
                     body_joints.append(bj)
                     hands_groups.append(hg)
     C = hand_frame(body_sk, body_arm) @ hand_frame(hands_sk, hands_arm).T
-    return FingerMap(tuple(body_joints), tuple(hands_groups), quat_from_matrix(C))
+    Cq = quat_from_matrix(C)
+    bones = _bone_alignment(body_sk, rb, hands_sk, rh, body_joints, hands_groups, runs, Cq)
+    return FingerMap(tuple(body_joints), tuple(hands_groups), Cq, bones)
+
+
+def _bone_alignment(body_sk, rb, hands_sk, rh, body_joints, hands_groups, runs, Cq) -> dict:
+    """Rest rotations ``A`` taking each body finger bone onto the paired hands bone (in body axes).
+
+    Copying local rotations (``C q C^-1``) puts the body's bones where the hands' bones are only
+    when both rigs' rest bones are parallel.  Rigs whose rest pose is not anatomical (ManipNet's
+    zig-zag thumb, straightened by constant joint rotations) need ``q_body = A_parent^-1 (C q C^-1) A``
+    with ``A`` the smallest rotation from the body's rest bone to the hands' rest bone, so that each
+    body bone takes the hands bone's direction (``A`` is the identity for parallel bones).  A bone
+    with no length (no child, no End Site) continues the previous bone of its finger.
+    """
+    if not body_joints:
+        return {}
+    ident = np.array([1.0, 0.0, 0.0, 0.0])
+    eps_b = 1e-6 * max(float(np.ptp(rb, axis=0).max()), 1e-9)
+    eps_h = 1e-6 * max(float(np.ptp(rh, axis=0).max()), 1e-9)
+
+    def bone(sk, rest, j, nxt, eps):
+        if nxt is not None:
+            v = rest[nxt] - rest[j]
+        else:
+            es = sk.end_sites[j]
+            kids = list(sk.children[j])
+            v = np.zeros(3) if np.any(np.isnan(es)) else np.array(es, dtype=np.float64)
+            if not np.linalg.norm(v) > eps and kids:
+                v = rest[kids[0]] - rest[j]
+        return v if np.linalg.norm(v) > eps else None
+
+    out: dict = {}
+    for run in runs:
+        prev_b = prev_h = None
+        a_prev = ident
+        for i, r in enumerate(run):
+            bj, hg = body_joints[r], hands_groups[r]
+            nb = body_joints[run[i + 1]] if i + 1 < len(run) else None
+            nh = hands_groups[run[i + 1]][0] if i + 1 < len(run) else None
+            ob = bone(body_sk, rb, bj, nb, eps_b)
+            oh = bone(hands_sk, rh, hg[-1], nh, eps_h)
+            ob = prev_b if ob is None else ob
+            oh = prev_h if oh is None else oh
+            a = ident if ob is None or oh is None else quat_between(ob, quat_rotate(Cq, oh))
+            out[bj] = (a_prev, a)
+            prev_b, prev_h, a_prev = ob, oh, a
+    return out
 
 
 def carried_rotations(hands_q: np.ndarray, fmap: FingerMap) -> np.ndarray:
@@ -103,12 +159,16 @@ def carried_rotations(hands_q: np.ndarray, fmap: FingerMap) -> np.ndarray:
     out = []
     C = fmap.conj
     identity = quat_angle_deg(C, np.array([1.0, 0, 0, 0])) < 1e-6
-    for group in fmap.hands:
+    bones = fmap.bones or {}
+    for bj, group in zip(fmap.body, fmap.hands):
         q = hands_q[:, group[0]]
         for j in group[1:]:
             q = quat_mul(q, hands_q[:, j])
         if not identity:
             q = quat_mul(quat_mul(C[None], q), quat_conj(C)[None])
+        if bj in bones:  # b-handgeom: rest bones of the two rigs not parallel
+            a_parent, a = bones[bj]
+            q = quat_mul(quat_mul(quat_conj(a_parent)[None], q), a[None])
         out.append(q)
     return np.stack(out, axis=1) if out else np.zeros((hands_q.shape[0], 0, 4))
 

@@ -118,3 +118,47 @@ def test_a_coarse_body_hand_follows_the_middle_finger_from_its_knuckle():
     # RightFingerBase sits at the wrist: RFingers, the first joint away from it, takes the MCP
     assert pairs == {"RFingers": ["rMid1"]}
     assert np.all(np.isfinite(fmap.conj))
+
+
+def test_a_rig_with_non_parallel_rest_bones_transfers_the_same_finger_positions():
+    """A hands rig whose rest bone is bent (and straightened again by constant rotations, as
+    ManipNet's thumb) must drive the body's bones to the same places as a plain rig."""
+    from splicer.kinematics import global_transforms
+    from splicer.rotations import quat_conj, quat_mul, quat_rotate
+    from splicer import splice
+    from splicer.synth import make_gesture_take
+
+    take = make_gesture_take(4.0, 30.0, np.random.default_rng(11))
+    sk = take.skeleton
+    roles = find_roles(sk)
+    fj = sorted(j for a in roles.sides.values() for j in a.finger_joints)
+    flat = np.zeros((take.n_frames, len(fj), 4))
+    flat[..., 0] = 1
+    body = take.with_rotations(fj, flat)
+    j, c = roles.sides["right"].fingers["index"][1:3]           # PIP and DIP
+    r0 = np.array([np.cos(0.6), 0.3 * np.sin(0.6), 0.9 * np.sin(0.6), 0.3 * np.sin(0.6)])
+    r0 = r0 / np.linalg.norm(r0)                                  # a turn of 69 deg, not about the bone
+    offs = np.array(sk.offsets)
+    offs[c] = quat_rotate(quat_conj(r0), offs[c])              # the bone bent at rest ...
+    odd_sk = Skeleton(sk.names, sk.parents, offs, sk.channels, sk.end_sites)
+    odd = Motion(odd_sk, take.channels, take.frame_time)
+    q = take.rotations
+    odd = odd.with_rotations([j, c], np.stack([quat_mul(q[:, j], r0[None]),        # ... and straightened
+                                               quat_mul(quat_conj(r0)[None], q[:, c])], axis=1))
+    np.testing.assert_allclose(global_transforms(odd)[1], global_transforms(take)[1], atol=1e-9)
+    a, b = splice(body, take), splice(body, odd)
+    np.testing.assert_allclose(a.report["sides"]["right"]["hands_frame"], b.report["sides"]["right"]["hands_frame"])
+    pa, pb = global_transforms(a.motion, fj)[1], global_transforms(b.motion, fj)[1]
+    np.testing.assert_allclose(pb, pa, atol=1e-6)   # cm
+
+
+
+def test_a_guessed_hand_frame_is_reported():
+    from splicer.handgeom import hand_frame_warnings
+
+    sk = _cmu_like()
+    arm = find_roles(sk).sides["right"]
+    assert hand_frame_warnings(sk, arm, "cmu.bvh") == []          # fingers and thumb give both axes
+    no_thumb = ArmRoles("right", arm.wrist, arm.elbow, arm.upper_arm, {"hand": arm.fingers["hand"]})
+    (w,) = hand_frame_warnings(sk, no_thumb, "cmu.bvh")
+    assert w.startswith("cmu.bvh: the right hand's rest frame is a guess (long axis from finger bases, radial axis from none")

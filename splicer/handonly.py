@@ -26,7 +26,7 @@ from .markers import Markers
 from .model import Motion, Skeleton
 from .roles import ArmRoles
 
-__all__ = ["is_hand_only", "root_referenced", "coincident_forearm", "wrist_source_notes"]
+__all__ = ["is_hand_only", "reference_joint", "root_referenced", "coincident_forearm", "wrist_source_notes"]
 
 _FOREARM_WORDS = re.compile(r"fore|elbow|lowerarm|radius|ulna", re.IGNORECASE)
 
@@ -36,25 +36,38 @@ def is_hand_only(arm: ArmRoles) -> bool:
     return arm.upper_arm is None
 
 
-def root_referenced(motion: Motion, markers: Markers) -> Markers:
-    """The same markers measured from the root joint's world position instead of the shoulder.
+def reference_joint(skeleton: Skeleton, arm: ArmRoles) -> int:
+    """The body's moving root: the deepest joint with position channels above the arm.
+
+    Usually the hips (the root); a rig with a static ``Reference`` root above 6-channel hips
+    gives the hips.  Joint 0 when no joint above the wrist has position channels.
+    """
+    chain = skeleton.chain(arm.upper_arm if arm.upper_arm is not None else arm.wrist)
+    with_pos = [j for j in chain if skeleton.position_columns(j)]
+    return with_pos[-1] if with_pos else 0
+
+
+def root_referenced(motion: Motion, markers: Markers, joint: int = 0) -> Markers:
+    """The same markers measured from a root joint's world position instead of the shoulder.
 
     Parameters
     ----------
     motion : Motion
-        The motion ``markers`` were made from (its joint 0 is the root).
+        The motion ``markers`` were made from.
     markers : Markers
+    joint : int
+        The reference joint (see :func:`reference_joint`); the root by default.
 
     Returns
     -------
     Markers
         ``points``, ``heading``, ``up``, ``fps`` and ``side`` unchanged; ``shoulder`` (the
-        reference :meth:`Markers.relative` subtracts) is the root's world position per frame,
+        reference :meth:`Markers.relative` subtracts) is the joint's world position per frame,
         file units.
     """
     if motion.n_frames != markers.n_frames:
         raise ValueError(f"motion has {motion.n_frames} frames but the markers {markers.n_frames}")
-    _, pos = global_transforms(motion, [0])
+    _, pos = global_transforms(motion, [joint])
     return Markers(markers.points, pos[:, 0], markers.heading, markers.up, markers.fps, markers.side)
 
 

@@ -12,7 +12,7 @@ import pytest
 from splicer.bvh import read_bvh, write_bvh
 from splicer.errors import SplicerError
 from splicer.evaluate import evaluate, evaluate_pair, hands_inputs
-from splicer.handonly import coincident_forearm, is_hand_only, root_referenced
+from splicer.handonly import coincident_forearm, is_hand_only, reference_joint, root_referenced
 from splicer.kinematics import global_transforms
 from splicer.markers import arm_markers
 from splicer.roles import find_roles
@@ -96,6 +96,20 @@ def test_root_referenced_markers(hands, roles):
     np.testing.assert_array_equal(rr.points, mk.points)
     np.testing.assert_allclose(rr.shoulder, root[:, 0])
     np.testing.assert_allclose(rr.relative(), mk.points - root[:, 0][:, None, :])
+
+
+def test_reference_joint_is_the_moving_root(hands, roles):
+    from splicer.model import Skeleton
+
+    assert reference_joint(hands.skeleton, roles.sides["left"]) == 0  # Hips
+    # a static 6-channel "Reference" root above the hips: the hips are the reference
+    sk = hands.skeleton
+    pos = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+    new = Skeleton(("Reference",) + sk.names, np.concatenate([[-1], sk.parents + 1]),
+                   np.concatenate([np.zeros((1, 3)), sk.offsets]), (pos,) + sk.channels,
+                   np.concatenate([np.full((1, 3), np.nan), sk.end_sites]))
+    r = find_roles(new, source="ref.bvh")
+    assert new.names[reference_joint(new, r.sides["left"])] == "Hips"
 
 
 def test_splice_measures_the_body_from_its_root_for_hand_only_files(body, hands, roles):

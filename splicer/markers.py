@@ -25,7 +25,7 @@ from .rotations import quat_rotate
 
 __all__ = ["Markers", "arm_markers", "root_heading"]
 
-_FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
+FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
 _HAND_PER_FOREARM = 0.4  # wrist -> knuckles in forearm lengths, for bodies without finger joints
 
 
@@ -156,7 +156,7 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
         rest = rest_positions(sk)
         mid_base = bases.get("middle", base_list[0] if base_list else arm.wrist)
         hand_vec = rest[mid_base] - rest[arm.wrist]
-        back = -_FOREARM_PER_HAND * hand_vec
+        back = -FOREARM_PER_HAND * hand_vec
         parent = int(sk.parents[arm.wrist])
         turn = grot[:, 0] if parent < 0 else global_transforms(motion, [parent])[0][:, 0]
         p3 = w + 0.5 * quat_rotate(turn, back)

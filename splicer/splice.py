@@ -22,7 +22,7 @@ from .bvh import read_bvh
 from .constraints import SpliceConfig, frame_number, read_config
 from .dtw import Constraint, band_frames
 from .errors import ConstraintError, SplicerError, SplicerWarning
-from .handonly import coincident_forearm, is_hand_only, reference_joint, root_referenced, wrist_source_notes
+from .handonly import coincident_forearm, hand_only_view, is_hand_only, wrist_source_notes
 from .repair import hand_joints, repair_motion, repairs_summary
 from .markers import Markers, arm_markers
 from .merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
@@ -265,9 +265,11 @@ def splice(body, hands, *, config: SpliceConfig | str | Path | None = None, prog
         barm = find_roles(out.skeleton, source=bm.source, mapping=cfg.joints.get("body"), up=broles.up).sides[s]
         harm = hroles.sides[s]
         bmk = arm_markers(bm, broles.sides[s], broles.up)
-        # --- issue 9 (c-handonly): a hand-only file has no shoulder; measure the body from its root ---
+        # --- issue 9 (c-handonly): a hand-only file has no shoulder nor elbow; the body's markers
+        # are made the same way (from its root, with the same virtual forearm) ---
         if is_hand_only(harm) and not is_hand_only(broles.sides[s]):
-            bmk = root_referenced(bm, bmk, reference_joint(bm.skeleton, broles.sides[s]))
+            bmk = hand_only_view(bm, broles.sides[s], bmk,
+                                 forearm_joint=coincident_forearm(hm.skeleton, harm) is not None)
         # --- end issue 9 ---
         hmk = _align_up(arm_markers(hm, harm, hroles.up), broles.up)
         hmk_c = resample_markers(hmk, bm.fps)

@@ -26,7 +26,7 @@ from .rotations import quat_rotate
 
 __all__ = ["Markers", "arm_markers", "root_heading"]
 
-_FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
+FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,7 +163,7 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
         # with the wrist (wrist-rooted files).  At rest every joint frame is the world frame.
         f0 = "middle" if "middle" in anchors else next(iter(anchors), None)
         hand_vec = (rest[anchors[f0][0]] + anchors[f0][1] - rest[arm.wrist]) if f0 else np.zeros(3)
-        back = -_FOREARM_PER_HAND * hand_vec
+        back = -FOREARM_PER_HAND * hand_vec
         parent = int(sk.parents[arm.wrist])
         turn = grot[:, 0] if parent < 0 else global_transforms(motion, [parent])[0][:, 0]
         p3 = w + 0.5 * quat_rotate(turn, back)

@@ -243,15 +243,18 @@ def _align_up(markers, up_to: int):
 def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) -> SideMarkers:
     """Virtual markers of ``side`` in both takes, the hands brought to the body's rate and up axis."""
     from .align import resample_markers
-    from .handonly import is_hand_only, root_referenced
+    from .handonly import coincident_forearm, hand_only_view, is_hand_only
     from .markers import arm_markers
 
     log = log or Log()
     log.progress(f"{side}: markers", 0.0)
     bm, hm = inputs.body, inputs.hands
     bmk = arm_markers(bm, rig.body.sides[side], rig.body.up)
-    if is_hand_only(rig.hands.sides[side]) and not is_hand_only(rig.body.sides[side]):
-        bmk = root_referenced(bm, bmk)  # a hand-only file has no shoulder: measure the body from its root too
+    harm = rig.hands.sides[side]
+    if is_hand_only(harm) and not is_hand_only(rig.body.sides[side]):
+        # a hand-only file has no shoulder nor elbow: the body's markers are made the same way
+        # (from its root, with the same virtual forearm)
+        bmk = hand_only_view(bm, rig.body.sides[side], bmk, forearm_joint=coincident_forearm(hm.skeleton, harm) is not None)
     hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
     # --- issue 14: real optical markers replace the virtual ones of the take that has them ---
     real = {}

@@ -13,6 +13,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from .band import _trim
+from .defaults import DEAD_ZONE, SMOOTH_S
 from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from .errors import BandError
 from .markers import Markers
@@ -110,8 +111,8 @@ def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: f
     return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints))
 
 
-def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = 0.025,
-          dead_zone: float = 0.01, theta: str = "window", coarse_fps: float | None = None,
+def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = SMOOTH_S,
+          dead_zone: float = DEAD_ZONE, theta: str = "window", coarse_fps: float | None = None,
           coarse_width: float | None = None, progress=None) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
@@ -193,8 +194,8 @@ def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):
 
 
 def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
-          diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = 0.025,
-          dead_zone: float = 0.01, theta: str = "window", progress=None) -> PassResult:
+          diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = SMOOTH_S,
+          dead_zone: float = DEAD_ZONE, theta: str = "window", progress=None) -> PassResult:
     """Pass 2: banded DTW with the palm metric D2 between the body and the pass-1-warped hands.
 
     Parameters

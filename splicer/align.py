@@ -45,6 +45,9 @@ class PassResult:
     name: str
     local_cost: object = None  # callable (band, i0, i1) -> band rows of local costs, for plots
 
+    def __repr__(self) -> str:
+        return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
+
 
 def resample_markers(markers: Markers, fps: float) -> Markers:
     """Markers brought to ``fps`` frames per second (linear in time; Gaussian anti-aliasing when

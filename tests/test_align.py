@@ -144,6 +144,8 @@ def test_pass1_of_identical_takes_is_the_diagonal_at_zero_cost():
     pr = pass1(body, body, width=10.0)
     np.testing.assert_array_equal(pr.path, np.stack([np.arange(90)] * 2, axis=1))
     assert pr.cost == 0.0 and pr.name == "pass1" and pr.band.width == 10.0
+    assert repr(pr) == ("PassResult(name='pass1', path=90 cells, cost=0, band=Band(n=90, m=90, width=10, "
+                        f"cells={pr.band.n_cells}, max_row_width={pr.band.max_row_width}, constraints=0))")
 
 
 def test_pass1_recovers_a_known_warp_and_honours_a_pin():

@@ -29,6 +29,7 @@ def test_band_through_a_constraint_by_hand():
     assert b.lo.tolist() == [0, 0, 3, 3, 3] and b.hi.tolist() == [1, 3, 3, 4, 4]
     assert b.constraints == (Constraint(2, 3, 0),)
     assert b.contains(2, 3) and not b.contains(2, 2) and not b.contains(2, 4) and not b.contains(5, 3)
+    assert b.contains(0, 0) and b.contains(0, 1) and not b.contains(0, 2) and not b.contains(-1, 0)
 
 
 def test_tolerance_widens_the_constraint_row():

@@ -150,6 +150,24 @@ def test_carried_rotations_are_copied_when_the_conventions_agree():
     assert carried_rotations(q, type(fm)((), (), fm.conj)).shape == (4, 0, 4)
 
 
+def test_carried_rotations_skip_C_only_below_a_millionth_of_a_degree():
+    sk, arm = _body()
+    fm = finger_map(sk, arm, sk, arm)
+    rng = np.random.default_rng(4)
+    q = rng.standard_normal((3, sk.n_joints, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    # C 1e-7 degrees from the identity: the rotations are copied bit for bit
+    tiny = quat_from_euler(np.array([0.0, 1e-7, 0.0]), "XYZ")
+    np.testing.assert_array_equal(carried_rotations(q, type(fm)(fm.body, fm.hands, tiny)), q[:, list(fm.body)])
+    # C half a degree about Y: q -> C q C^-1, which turns each rotation's axis by 0.5 degrees
+    half = quat_from_euler(np.array([0.0, 0.5, 0.0]), "XYZ")
+    out = carried_rotations(q, type(fm)(fm.body, fm.hands, half))
+    from splicer.rotations import quat_conj, quat_mul
+    want = quat_mul(quat_mul(half, q[:, list(fm.body)]), quat_conj(half))
+    np.testing.assert_allclose(out, want, atol=1e-15)
+    assert np.abs(out - q[:, list(fm.body)]).max() > 1e-4
+
+
 def test_graft_puts_the_hands_fingers_under_the_wrist_turned_and_scaled():
     body_sk, _ = _body(fingers=())
     arm = ArmRoles("left", 3, 2, 1, {})

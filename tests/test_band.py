@@ -106,6 +106,7 @@ def test_band_record_validates_and_is_read_only():
     ("99.9%", 600, None, 599.4),  # a share is written as one
     ("20s", 600, 60.0, 1200.0),   # 20 s x 60 fps
     ("1.5s", 600, 120.0, 180.0),
+    ("2s", 600, 0.5, 1.0),          # a slow rate is a rate: 2 s at 0.5 fps is one frame
     ("7f", 600, None, 7.0),
 ])
 def test_band_frames_policy(spec, n, fps, frames):

@@ -13,6 +13,7 @@ import numpy as np
 from .filters import gaussian_filter1d
 
 from .band import _trim, full_band
+from .defaults import DEAD_ZONE, SMOOTH_S
 from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from .errors import BandError
 from .markers import Markers
@@ -64,6 +65,9 @@ class PassResult:
     ends: str = "fixed"
     step_penalty: float = 0.0
     horizontal_weight: float = 1.0
+
+    def __repr__(self) -> str:
+        return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
 
 
 def resample_markers(markers: Markers, fps: float) -> Markers:
@@ -156,8 +160,8 @@ def _coarse_constraints(constraints, factor, nc, mc):
     return out
 
 
-def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = 0.025,
-          dead_zone: float = 0.01, theta: str = "window", coarse_fps: float | None = None,
+def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = SMOOTH_S,
+          dead_zone: float = DEAD_ZONE, theta: str = "window", coarse_fps: float | None = None,
           coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
@@ -336,8 +340,8 @@ def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):
 
 
 def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
-          diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = 0.025,
-          dead_zone: float = 0.01, theta: str = "window", progress=None, covered=None) -> PassResult:
+          diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = SMOOTH_S,
+          dead_zone: float = DEAD_ZONE, theta: str = "window", progress=None, covered=None) -> PassResult:
     """Pass 2: banded DTW with the palm metric D2 between the body and the pass-1-warped hands.
 
     Parameters

@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit, prange
 from .filters import gaussian_filter1d
 
+from .defaults import DEAD_ZONE, SMOOTH_S
 from .markers import Markers
 
 __all__ = [
@@ -122,7 +123,7 @@ def _smooth_derivatives(x: np.ndarray, fps: float, smooth_s: float) -> tuple[np.
     return vel, acc
 
 
-def phase_features(markers: Markers, *, smooth_s: float = 0.1, dead_zone: float = 0.1) -> PhaseFeatures:
+def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE) -> PhaseFeatures:
     """Prepare D1's inputs for one motion.
 
     Parameters
@@ -131,11 +132,13 @@ def phase_features(markers: Markers, *, smooth_s: float = 0.1, dead_zone: float 
         Virtual markers of one side, at the rate the DTW works at.
     smooth_s : float
         Standard deviation (seconds) of the Gaussian that smooths the shoulder-relative
-        markers before differentiating: capture noise flips signs otherwise.
+        markers before differentiating: capture noise flips signs otherwise.  Default: the
+        splice's, :data:`splicer.defaults.SMOOTH_S`.
     dead_zone : float
         Components below ``dead_zone`` times the motion's RMS velocity (acceleration)
         count as zero, so a hold reads as a hold and a confined hand capture is judged on
-        the same relative scale as a free body capture.
+        the same relative scale as a free body capture.  Default: the splice's,
+        :data:`splicer.defaults.DEAD_ZONE`.
     """
     rel = markers.relative()
     vel, acc = _smooth_derivatives(rel, markers.fps, smooth_s)

@@ -14,8 +14,8 @@ marker heading).
 
 >>> quat_from_euler([90.0, 0.0, 0.0], "XYZ").round(6).tolist()
 [0.707107, 0.707107, 0.0, 0.0]
->>> float(quat_angle_deg(quat_from_euler([30.0, 0, 0], "XYZ"), [1.0, 0, 0, 0])) # doctest: +ELLIPSIS
-30.0...
+>>> round(float(quat_angle_deg(quat_from_euler([30.0, 0, 0], "XYZ"), [1.0, 0, 0, 0])), 9)
+30.0
 """
 
 from __future__ import annotations

@@ -144,6 +144,8 @@ def test_pass1_of_identical_takes_is_the_diagonal_at_zero_cost():
     pr = pass1(body, body, width=10.0)
     np.testing.assert_array_equal(pr.path, np.stack([np.arange(90)] * 2, axis=1))
     assert pr.cost == 0.0 and pr.name == "pass1" and pr.band.width == 10.0
+    assert repr(pr) == ("PassResult(name='pass1', path=90 cells, cost=0, band=Band(n=90, m=90, width=10, "
+                        f"cells={pr.band.n_cells}, max_row_width={pr.band.max_row_width}, constraints=0))")
 
 
 def test_pass1_recovers_a_known_warp_and_honours_a_pin():
@@ -194,3 +196,24 @@ def test_pass2_cost_adds_the_departure_penalty_and_normalised_d1():
         np.testing.assert_allclose(out[r], 0.5 + 2.0 * np.abs(cols - 2 * i) / 4.0)
     np.testing.assert_array_equal(_pass2_cost(d2, d1, 4.0, 0.0, 0.0)(band, 0, 5), 0.0)
     np.testing.assert_array_equal(_pass2_cost(d2, None, 4.0, 0.0, 1.0)(band, 0, 5), 0.0)
+
+
+def test_guided_band_by_hand():
+    # coarse path (factor 2) (0,0) (1,1) (2,1) (3,2) (4,4): per coarse row jmin = jmax = 0 1 1 2 4.
+    # fine row i -> coarse row rint(i / 2) = 0 0 1 2 2 2 3 4 4 (ties to even); with the
+    # neighbouring coarse rows: lo_c = 0 0 0 1 1 1 1 2 2, hi_c = 1 1 1 2 2 2 4 4 4.
+    # n = m = 9, W = 1: Delta = sqrt(2) / 2 = 0.707;
+    #   lo = floor(2 lo_c - 2 - 0.707) clipped = 0 0 0 0 0 0 0 1 1
+    #   hi = ceil(2 hi_c + 2 + 0.707) clipped = 5 5 5 7 7 7 8 8 8
+    cp = np.array([(0, 0), (1, 1), (2, 1), (3, 2), (4, 4)])
+    b = guided_band(cp, 2.0, 9, 9, 1.0)
+    assert b.lo.tolist() == [0, 0, 0, 0, 0, 0, 0, 1, 1] and b.hi.tolist() == [5, 5, 5, 7, 7, 7, 8, 8, 8]
+    # the pin (4, 3 +- 1) clips row 4 to [2, 4]; trimming to cells on a path: lo = running max
+    # 0 0 0 0 2 2 2 2 2, hi = reversed running min 4 4 4 4 4 7 8 8 8
+    b = guided_band(cp, 2.0, 9, 9, 1.0, [Constraint(4, 3, 1)])
+    assert b.lo.tolist() == [0, 0, 0, 0, 2, 2, 2, 2, 2] and b.hi.tolist() == [4, 4, 4, 4, 4, 7, 8, 8, 8]
+    assert b.constraints == (Constraint(4, 3, 1),) and b.width == 1.0
+    # m = 12, W = 3: s = 12 / 9, Delta = 3 sqrt(1 + s^2) / 2 = 3 (5/3) / 2 = 2.5;
+    #   lo = floor(2 lo_c - 4.5) -> all 0; hi = ceil(2 hi_c + 4.5) = 7 7 7 9 9 9 13 -> 11
+    b = guided_band(cp, 2.0, 9, 12, 3.0)
+    assert b.lo.tolist() == [0] * 9 and b.hi.tolist() == [7, 7, 7, 9, 9, 9, 11, 11, 11]

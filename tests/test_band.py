@@ -29,6 +29,7 @@ def test_band_through_a_constraint_by_hand():
     assert b.lo.tolist() == [0, 0, 3, 3, 3] and b.hi.tolist() == [1, 3, 3, 4, 4]
     assert b.constraints == (Constraint(2, 3, 0),)
     assert b.contains(2, 3) and not b.contains(2, 2) and not b.contains(2, 4) and not b.contains(5, 3)
+    assert b.contains(0, 0) and b.contains(0, 1) and not b.contains(0, 2) and not b.contains(-1, 0)
 
 
 def test_tolerance_widens_the_constraint_row():
@@ -106,6 +107,7 @@ def test_band_record_validates_and_is_read_only():
     ("99.9%", 600, None, 599.4),  # a share is written as one
     ("20s", 600, 60.0, 1200.0),   # 20 s x 60 fps
     ("1.5s", 600, 120.0, 180.0),
+    ("2s", 600, 0.5, 1.0),          # a slow rate is a rate: 2 s at 0.5 fps is one frame
     ("7f", 600, None, 7.0),
 ])
 def test_band_frames_policy(spec, n, fps, frames):

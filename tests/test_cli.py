@@ -71,10 +71,13 @@ def test_broken_bvh(tmp_path, capsys):
     broken = tmp_path / "broken.bvh"
     text = BODY.read_text().splitlines()
     assert text.index("MOTION") < 399
-    text[399] = text[399].replace(" ", " x ", 1)  # a non-numeric value in a data row
+    values = text[399].split()
+    values[1] = "x"  # a non-numeric value in a data row (the number of values unchanged)
+    text[399] = " ".join(values)
     broken.write_text("\n".join(text) + "\n")
     line = _bad([broken, HANDS, "-o", tmp_path / "o.bvh"], capsys, tmp_path, "broken.bvh, line 400")
-    assert "'x'" in line or "x" in line
+    # the message names the value and its place: "value 2 of the frame row: ... found 'x'"
+    assert "'x'" in line and "value 2" in line, line
 
 
 def test_truncated_bvh(tmp_path, capsys):

@@ -50,9 +50,10 @@ def test_no_alignment_is_worse_than_oracle(table):
 
 
 def test_full_method_beats_uniform_scaling(table):
-    full = table.loc["full, smooth time map", "align mean (frames)"]
-    assert full < table.loc["uniform scaling", "align mean (frames)"]
-    assert table.loc["full, smooth time map", "finger error (deg)"] < table.loc["uniform scaling", "finger error (deg)"]
+    # measured on this take: full 1.06 frames and 0.52 deg, uniform scaling 23.3 frames and 5.3 deg
+    full, unif = table.loc["full, smooth time map"], table.loc["uniform scaling"]
+    assert full["align mean (frames)"] < 1.5 and unif["align mean (frames)"] > 15.0
+    assert full["finger error (deg)"] < 0.8 and unif["finger error (deg)"] > 4.0
 
 
 def test_worst_is_beside_the_mean():

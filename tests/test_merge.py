@@ -98,9 +98,43 @@ def test_every_pin_window_holds_after_the_monotone_fix_up(rng):
 
 def test_a_straight_map_survives_smoothing_ends_included():
     # reflection through the end points keeps a ramp a ramp (a plain 'nearest' pad would
-    # bend both ends towards the middle)
-    ramp = 2.0 * np.arange(30)
+    # bend both ends towards the middle); 20 frames, sigma 3: the padding (12 frames) is
+    # exactly the kernel's reach (4 sigma)
+    ramp = 5.0 + 2.0 * np.arange(20)
     np.testing.assert_allclose(smooth_time_map(ramp, sigma_frames=3.0, last=100.0), ramp, atol=1e-9)
+
+
+def test_a_two_frame_map_is_padded_by_one_frame_and_then_held():
+    # [0, 10], sigma 1: pad = min(4, 1) = 1 -> ext = [-10, 0, 10, 20], and the filter holds the
+    # ends beyond ('nearest').  Weights w0..w4 = .398942 .241971 .053991 .004432 .000134:
+    # frame 0 = -10 (w1 + w2 + w3 + w4) + 10 w1 + 20 (w2 + w3 + w4) = 0.585567; frame 1 the mirror
+    out = smooth_time_map(np.array([0.0, 10.0]), sigma_frames=1.0, last=10.0)
+    np.testing.assert_allclose(out, [0.585567, 9.414433], atol=2e-6)
+
+
+def test_a_short_map_stays_symmetric():
+    # 5 frames, sigma 2: the padding is cut to 4 frames; a ramp comes out antisymmetric about
+    # its middle frame, which stays at 2
+    out = smooth_time_map(np.arange(5.0), sigma_frames=2.0, last=10.0)
+    assert out[2] == pytest.approx(2.0, abs=1e-12)
+    np.testing.assert_allclose(out + out[::-1], 4.0, atol=1e-12)
+    assert out[0] > 0.0
+
+
+def test_clipping_to_the_hands_take_before_and_after_the_pins():
+    # above the take (last = 10): clipped first to [0, 10, 10, 10, 10]; the pin (2 -> 5 exactly)
+    # gives d = -5: correction 0 -2.5 -5 -2.5 0 -> [0, 7.5, 5, 7.5, 10], running maximum
+    # [0, 7.5, 7.5, 7.5, 10], frames up to the pin capped at 5: [0, 5, 5, 7.5, 10]
+    out = smooth_time_map(np.array([0.0, 20, 20, 20, 20]), sigma_frames=0.0, last=10.0, pins=[(2, 5.0, 0.0)])
+    np.testing.assert_allclose(out, [0, 5, 5, 7.5, 10], atol=1e-12)
+    # below it: [-10, -10, -10, -10, 10] is clipped to [0, 0, 0, 0, 10] first; d = +5:
+    # [0, 2.5, 5, 2.5, 10] -> [0, 2.5, 5, 5, 10]
+    out = smooth_time_map(np.array([-10.0, -10, -10, -10, 10]), sigma_frames=0.0, last=10.0, pins=[(2, 5.0, 0.0)])
+    np.testing.assert_allclose(out, [0, 2.5, 5, 5, 10], atol=1e-12)
+    # a pin that lifts the frames after it past the end: [0, 0, 10, 10], last 10, pin (1 -> 5):
+    # correction 0 5 2.5 0 -> [0, 5, 12.5, 10] -> [0, 5, 12.5, 12.5] -> clipped [0, 5, 10, 10]
+    out = smooth_time_map(np.array([0.0, 0, 10, 10]), sigma_frames=0.0, last=10.0, pins=[(1, 5.0, 0.0)])
+    np.testing.assert_allclose(out, [0, 5, 10, 10], atol=1e-12)
 
 
 def test_smoothed_step_has_the_gaussian_weights():
@@ -108,7 +142,7 @@ def test_smoothed_step_has_the_gaussian_weights():
     # weights exp(-k^2 / 2): k=0: 1, 1: 0.6065307, 2: 0.1353353, 3: 0.0111090, 4: 0.0003355;
     # total 2.5066210; frame 9 gets 10 x (0.6065307 + 0.1353353 + 0.0111090 + 0.0003355)
     # / 2.5066210 = 3.005283, frame 10 the mirror 6.994717
-    step = np.r_[np.zeros(10), np.full(10, 10.0)]
+    step = np.r_[np.zeros(10, dtype=int), np.full(10, 10)]  # integers: the map is fractional all the same
     out = smooth_time_map(step, sigma_frames=1.0, last=10.0)
     assert out[9] == pytest.approx(3.005283, abs=2e-6)
     assert out[10] == pytest.approx(6.994717, abs=2e-6)
@@ -155,10 +189,11 @@ def test_median_of_an_even_count_is_the_midway_rotation():
 
 
 def test_median_rotations_output_is_hemisphere_continuous():
-    # hands rotations 170 and -170 degrees about X (20 degrees apart across the flip):
-    # the stored quaternions have opposite signs; the output must not flip between frames
+    # hands rotations 170 and -170 degrees about X (20 degrees apart across the flip): their
+    # quaternions (cos 85, sin 85, 0, 0) and (cos 85, -sin 85, 0, 0) have a negative dot
+    # product; the output must not flip between frames
     q = _about_x([170.0, -170.0])
-    q[1] *= -1.0
+    assert np.sum(q[0, 0] * q[1, 0]) < 0
     out = median_rotations(q, np.array([0.0, 1.0]), np.array([0, 1]), 2)
     assert np.sum(out[0, 0] * out[1, 0]) > 0
     assert quat_angle(out[0, 0], out[1, 0]) == pytest.approx(20.0, abs=1e-9)

@@ -100,7 +100,9 @@ def test_separated_take_is_aligned_better_than_uniform(take, roles):
     for side in ("left", "right"):
         ours = np.abs(np.interp(_frames(r, side), sep.truth, np.arange(n)) - np.arange(n)).mean()
         unif = np.abs(np.interp(uniform, sep.truth, np.arange(n)) - np.arange(n)).mean()
-        assert ours < 0.5 * unif, (side, ours, unif)
+        # measured: 0.63 (left) and 0.73 (right) body frames against 6.58 for uniform scaling
+        assert ours < 1.0, (side, ours, unif)
+        assert unif > 5.0, (side, ours, unif)
 
 
 @pytest.mark.parametrize("merge", ["timemap", "median"])

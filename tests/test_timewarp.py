@@ -117,3 +117,17 @@ def test_smooth_monotone_warp_bounds():
     assert d.min() >= 0.5 - 1e-12 and d.max() <= 2.0 + 1e-12
     assert d.max() / d.min() > 1.5  # the speed really varies
     assert np.abs(np.diff(d)).max() < 0.1  # and smoothly (range 1.5 over 2000 frames)
+
+
+def test_resample_keeps_angles_near_the_original_channels_and_the_source():
+    # the arm's Z channel is stored as 370 .. 390 degrees (a file written after a full turn):
+    # the written-back Euler angle is brought within 180 degrees of the interpolated channel,
+    # so 370 stays 370 (not 10) and halfway between 370 and 380 is 375
+    rng = np.random.default_rng(6)
+    m = _two_joint_motion(rng, T=3)
+    ch = np.array(m.channels)
+    ch[:, 6:9] = [[370.0, 0, 0], [380.0, 0, 0], [390.0, 0, 0]]
+    m = Motion(m.skeleton, ch, m.frame_time, source="arm.bvh")
+    out = resample_motion(m, np.array([0.0, 0.5, 2.0]), 1 / 60)
+    np.testing.assert_allclose(out.channels[:, 6], [370.0, 375.0, 390.0], atol=1e-9)
+    assert out.source == "arm.bvh" and out.frame_time == 1 / 60

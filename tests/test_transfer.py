@@ -150,6 +150,24 @@ def test_carried_rotations_are_copied_when_the_conventions_agree():
     assert carried_rotations(q, type(fm)((), (), fm.conj)).shape == (4, 0, 4)
 
 
+def test_carried_rotations_skip_C_only_below_a_millionth_of_a_degree():
+    sk, arm = _body()
+    fm = finger_map(sk, arm, sk, arm)
+    rng = np.random.default_rng(4)
+    q = rng.standard_normal((3, sk.n_joints, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    # C 1e-7 degrees from the identity: the rotations are copied bit for bit
+    tiny = quat_from_euler(np.array([0.0, 1e-7, 0.0]), "XYZ")
+    np.testing.assert_array_equal(carried_rotations(q, type(fm)(fm.body, fm.hands, tiny)), q[:, list(fm.body)])
+    # C half a degree about Y: q -> C q C^-1, which turns each rotation's axis by 0.5 degrees
+    half = quat_from_euler(np.array([0.0, 0.5, 0.0]), "XYZ")
+    out = carried_rotations(q, type(fm)(fm.body, fm.hands, half))
+    from splicer.rotations import quat_conj, quat_mul
+    want = quat_mul(quat_mul(half, q[:, list(fm.body)]), quat_conj(half))
+    np.testing.assert_allclose(out, want, atol=1e-15)
+    assert np.abs(out - q[:, list(fm.body)]).max() > 1e-4
+
+
 def test_graft_puts_the_hands_fingers_under_the_wrist_turned_and_scaled():
     body_sk, _ = _body(fingers=())
     arm = ArmRoles("left", 3, 2, 1, {})
@@ -183,15 +201,17 @@ def test_graft_puts_the_hands_fingers_under_the_wrist_turned_and_scaled():
 def test_graft_renames_clashes_and_keeps_C_identity_for_the_same_convention():
     body_sk, _ = _body(fingers=())
     arm = ArmRoles("left", 3, 2, 1, {})
-    # a hands file in the body's own convention whose finger is called like a body joint
-    names = ("LeftForeArm", "LeftHand", "Neck", "Neck2")
-    hk = Skeleton(names, np.array([-1, 0, 1, 2]), np.array([(0, 0, 0), (25, 0, 0), BASES["index"], SEG]),
+    # a hands file in the body's own convention (its forearm root away from the origin) whose
+    # finger joints are called "Neck_2" and "Neck": the first keeps its name, the second
+    # clashes with the body's Neck and then with "Neck_2", and becomes "Neck_3"
+    names = ("LeftForeArm", "LeftHand", "Neck_2", "Neck")
+    hk = Skeleton(names, np.array([-1, 0, 1, 2]), np.array([(5, 100, 3), (25, 0, 0), BASES["index"], SEG]),
                   (ROOT, ROT, ("Xrotation", "Yrotation", "Zrotation"), ()), None)
     harm = ArmRoles("left", 1, 0, None, {"index": (2, 3)})
     body = Motion(body_sk, np.zeros((2, body_sk.n_channels)), 1 / 30)
     out, new_arm = graft_fingers(body, arm, hk, harm, 1.0)
     sk = out.skeleton
-    assert sk.names[4:6] == ("Neck_2", "Neck2") and sk.names[-1] == "Neck"
+    assert sk.names[4:6] == ("Neck_2", "Neck_3") and sk.names[-1] == "Neck"
     np.testing.assert_allclose(sk.offsets[4], BASES["index"], atol=1e-12)
     # the hands' own channel order is kept; a joint without channels gets Z X Y rotations
     assert sk.channels[4] == ("Xrotation", "Yrotation", "Zrotation") and sk.channels[5] == ROT
@@ -206,3 +226,16 @@ def test_graft_of_a_wrist_rooted_hand_uses_its_long_axis():
     out, _ = graft_fingers(body, arm, hk, harm, 1.0)
     np.testing.assert_allclose(out.skeleton.offsets[4], BASES["index"], atol=1e-12)
     np.testing.assert_allclose(quat_to_matrix(C_QUAT) @ hk.offsets[3], SEG, atol=1e-12)
+
+
+def test_graft_without_a_body_elbow_or_a_hands_forearm_length_keeps_the_axes():
+    # no body elbow, or a hands forearm of zero length: no direction to match, C = identity,
+    # the hands offsets are copied as they are (here in the -Z convention, unturned)
+    hk, harm = _hands(fingers=("index",))
+    body_sk, _ = _body(fingers=())
+    body = Motion(body_sk, np.zeros((1, body_sk.n_channels)), 1 / 30)
+    out, _ = graft_fingers(body, ArmRoles("left", 3, None, None, {}), hk, harm, 1.0)
+    np.testing.assert_allclose(out.skeleton.offsets[4], _to_hands(BASES["index"]), atol=1e-12)
+    flat = Skeleton(hk.names, hk.parents, np.vstack([[0, 0, 0], [0, 0, 0], hk.offsets[2:]]), hk.channels, None)
+    out, _ = graft_fingers(body, ArmRoles("left", 3, 2, 1, {}), flat, harm, 2.0)
+    np.testing.assert_allclose(out.skeleton.offsets[5], 2 * np.array(_to_hands(SEG)), atol=1e-12)

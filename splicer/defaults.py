@@ -1,0 +1,33 @@
+"""Default settings of the alignment, in one place.
+
+:class:`splicer.splice.SpliceOptions`, the passes in :mod:`splicer.align` and the feature
+functions in :mod:`splicer.metrics` all take their defaults from here, so a notebook that
+calls ``phase_features(markers)`` sees the same dead zone as the splice.  The values were
+chosen by measurement on held-out synthetic separations (README, *Accuracy*).
+
+Units are in the names: ``_S`` seconds, ``_FPS`` frames per second, ``_FRAMES`` frames.
+"""
+
+from __future__ import annotations
+
+#: Pass-1 band width: 30 % of the body take (the paper).  See :func:`splicer.band.band_frames`.
+BAND1 = "30%"
+#: Pass-2 band width as a share of pass 1's (the paper: 30 % and 10 %).
+BAND2_PER_BAND1 = 1.0 / 3.0
+#: Standard deviation of the Gaussian that smooths the markers before differentiating, seconds.
+SMOOTH_S = 0.025
+#: D1's sign dead zone: components below this share of the motion's RMS velocity
+#: (acceleration) count as zero.
+DEAD_ZONE = 0.01
+#: Pass 2's departure penalty, radians per band width of departure from the pass-1 warp.
+PASS2_WEIGHT = 2.0
+#: Weight of D1 (normalised by 24) added to D2 in pass 2; 0 is the paper's pass 2.
+PASS2_D1_WEIGHT = 0.0
+#: Smoothing of the time map, seconds.
+TIMEMAP_SIGMA_S = 0.2
+#: Median merge: frames blended each side of a jump.
+BLEND_WINDOW_FRAMES = 4
+#: Rate of the coarse guide pass of long takes, frames per second.
+COARSE_FPS = 5.0
+#: Takes longer than this get the coarse guide when ``coarse="auto"``, seconds.
+COARSE_ABOVE_S = 120.0

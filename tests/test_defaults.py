@@ -1,0 +1,27 @@
+"""One place of defaults: the splice, the passes and the feature functions agree."""
+
+import inspect
+
+from splicer import defaults
+from splicer.align import pass1, pass2
+from splicer.metrics import phase_features
+from splicer.splice import SpliceOptions
+
+
+def _default(func, name):
+    return inspect.signature(func).parameters[name].default
+
+
+def test_feature_functions_and_passes_use_the_splice_defaults():
+    # notebook 01 once showed a dead zone of 0.1 (metrics' own default) while the splice used 0.01
+    for func in (phase_features, pass1, pass2):
+        assert _default(func, "smooth_s") == defaults.SMOOTH_S == 0.025
+        assert _default(func, "dead_zone") == defaults.DEAD_ZONE == 0.01
+
+
+def test_splice_options_match_the_defaults_module():
+    o = SpliceOptions()
+    assert (o.band1, o.smooth_s, o.dead_zone) == (defaults.BAND1, defaults.SMOOTH_S, defaults.DEAD_ZONE)
+    assert (o.pass2_weight, o.pass2_d1_weight) == (defaults.PASS2_WEIGHT, defaults.PASS2_D1_WEIGHT)
+    assert (o.timemap_sigma_s, o.blend_window) == (defaults.TIMEMAP_SIGMA_S, defaults.BLEND_WINDOW_FRAMES)
+    assert (o.coarse_fps, o.coarse_above_s) == (defaults.COARSE_FPS, defaults.COARSE_ABOVE_S)

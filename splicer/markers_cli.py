@@ -157,11 +157,14 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     maps, side_reports, columns = {}, {}, {}
     from .align import resample_markers
 
-    for s in _sides_for(bt, ht, side, cfg, log):
+    sides = _sides_for(bt, ht, side, cfg, log)
+    unsided = any("neither marker file names a side" in w for w in log.warnings)
+    for s in sides:
         barm = arm_from_trajectories(bt, s, mapping=cfg.markers.get("body"), max_gap_s=max_gap_s)
         harm = arm_from_trajectories(ht, s, mapping=cfg.markers.get("hands"), max_gap_s=max_gap_s)
         for msg in barm.notes + harm.notes:
-            log.note(msg)
+            if msg not in log.warnings and not (unsided and "tell no side" in msg):
+                log.note(msg)
         hmk = resample_markers(_align_up(harm.markers, barm.markers.up), bt.fps)
         real = {"body": barm.report(bt), "hands": harm.report(ht)}
         sm = SideMarkers(s, barm.markers, hmk, spaces, tuple(pins_from_config(cfg, s, spaces)), real)

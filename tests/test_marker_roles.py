@@ -97,3 +97,30 @@ def test_shared_vicon_capture(shared_motions):
     np.testing.assert_array_equal(arm.gaps.trajectories.points[:, role_cols][seen], t.points[:, role_cols][seen])
     rep = arm.report(t)
     assert rep["marker_set"] == "biomechanics" and len(rep["gaps_filled"]) == 13
+
+
+def test_on_frames_resamples_onto_the_take(rng):
+    from splicer.marker_roles import on_frames
+    from splicer.markers import Markers
+
+    t = np.arange(101) / 100.0  # 1 s at 100 Hz, moving at (3, -1, 2) units per second
+    pts = np.stack([3 * t, -t, 2 * t], axis=1)[:, None, :] + np.zeros((1, 4, 3))
+    mk = Markers(pts, pts[:, 0], np.zeros(101), 2, 100.0, "right")
+    out, notes = on_frames(mk, 31, 30.0, what="m.c3d")
+    assert out.n_frames == 31 and out.fps == 30.0 and notes == ()
+    i = np.arange(5, 26)  # away from the ends, where the anti-aliasing filter sees both sides
+    np.testing.assert_allclose(out.points[i, 2], np.stack([3 * i / 30, -i / 30, 2 * i / 30], axis=1), atol=1e-9)
+    longer, notes = on_frames(mk, 40, 30.0, what="m.c3d")
+    assert longer.n_frames == 40 and np.all(longer.points[30:] == longer.points[30])
+    assert "the markers last 1.00 s but the take 1.30 s" in notes[0]
+
+
+def test_retime_known_answer():
+    from splicer.markers_cli import retime
+
+    pts = np.arange(5, dtype=float)[:, None, None] * np.ones((1, 2, 3))
+    pts[3, 1] = np.nan
+    t = Trajectories(("A", "B"), pts, 10.0)
+    out = retime(t, np.array([0.0, 1.5, 2.0, 2.5, 3.0, 4.0]), fps=5.0, first_frame=1)
+    np.testing.assert_allclose(out[:, 0, 0], [0, 1.5, 2, 2.5, 3, 4])
+    np.testing.assert_allclose(out[:, 1, 0], [0, 1.5, 2, np.nan, np.nan, 4])  # next to B's gap: missing

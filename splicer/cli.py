@@ -58,8 +58,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="PNG", help="write cost matrices, bands, constraints and paths")
     p.add_argument("--side", choices=("left", "right", "both"), default="both", help="sides to splice (default both)")
     p.add_argument("--hands-side", choices=("left", "right"), help="side of a hand-only file whose joint names do not say")
-    p.add_argument("--band", "--band1", dest="band1", default="30%",
-                   help="pass-1 band width: frames (120), share of the body take (30%%, the default) or seconds (20s)")
+    p.add_argument("--band", "--band1", dest="band1", default=None,
+                   help="pass-1 band width: frames (120), share of the body take (30%%) or seconds (20s); default 3s "
+                        "around the located overlap with open ends, 30%% with fixed ends")
+    p.add_argument("--ends", choices=("open", "fixed"), default=None,
+                   help="open (default): find where the takes overlap (the hands take may start early, stop late or "
+                        "cover part of the body); fixed: first frames match, last frames match (the paper)")
+    p.add_argument("--offset", type=float, default=None, metavar="SECONDS",
+                   help="open ends: body frame 0 shows this hands time (a starting guess, e.g. from timecode)")
     p.add_argument("--band2", default=None, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")
@@ -67,7 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--merge", choices=("timemap", "median"), default="timemap",
                    help="smooth time map with slerp (default) or the paper's median + blend")
     p.add_argument("--wrist", choices=("body", "hands"), default="body", help="wrist rotation from the body (default) or the hands take")
-    p.add_argument("--mirror-hands", choices=("auto", "yes", "no"), default=None,  # b-handgeom
+    p.add_argument("--mirror-hands", choices=("auto", "yes", "no"), default=None,  
                    help="mirror the hands take (a left-handed export) so its fingers flex toward the palm: auto "
                         "(the default: when its geometry is the other hand's), yes or no")
     p.add_argument("--no-repair", action="store_true", help="keep dropouts/gaps of the hands capture as they are "
@@ -208,7 +214,8 @@ def main(argv=None) -> int:
                             side=args.side, band1=args.band1, band2=args.band2, theta=args.theta,
                             passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
                             mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on",
-                            hands_markers=args.hands_markers, body_markers=args.body_markers)
+                            hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
+                            offset_s=args.offset)
         with tx:  # every output is staged, and appears only at tx.commit()
             write_bvh(result.motion, out)
             if args.report:

@@ -43,7 +43,7 @@ from .limits import shorten
 
 __all__ = ["PairSpec", "SpliceConfig", "read_config", "parse_config", "frame_number"]
 
-_TOP_KEYS = {"tolerance", "side", "pairs", "joints", "up", "hands_side", "mirror_hands", "markers"}
+_TOP_KEYS = {"tolerance", "side", "pairs", "joints", "up", "hands_side", "mirror_hands", "markers", "ends", "offset"}
 _PAIR_KEYS = {"body", "hands", "tolerance", "side"}
 _SIDES = ("left", "right", "both")
 _TIME = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*s\s*$")
@@ -71,8 +71,10 @@ class SpliceConfig:
     up: dict = field(default_factory=dict)
     hands_side: str | None = None
     source: str = "<config>"
-    mirror_hands: str | None = None  # b-handgeom: "auto", "yes", "no"; None = not given
+    mirror_hands: str | None = None  # "auto", "yes", "no"; None = not given
     markers: dict = field(default_factory=dict)  # {"body"|"hands": {"up": ..., side: {role: label(s)}}}
+    ends: str | None = None  # "open" | "fixed"; None = not given
+    offset_s: float | None = None  # body frame 0 shows this hands time, seconds (open ends: a starting guess)
 
 
 def frame_number(value, fps: float, *, what: str) -> int:
@@ -291,8 +293,25 @@ def parse_config(text: str, source: str = "<config>") -> SpliceConfig:
                     or any(not isinstance(v, dict) or set(v) - {"up", "left", "right"} for v in markers.values())):
         raise ConstraintError(f"{source}, line {lines['markers']}: 'markers' takes 'body:' and/or 'hands:' mappings "
                               "of 'up:', 'left:' and 'right:' (roles p1, p2, p3, p4, shoulder)")
+    ends = _scalar(top["ends"]) if "ends" in top else None
+    if ends not in (None, "open", "fixed"):
+        raise ConstraintError(f"{source}, line {lines['ends']}: ends must be open or fixed, not {shorten(ends)}")
+    offset_s = None
+    if "offset" in top:
+        raw = _scalar(top["offset"])
+        m = _TIME.match(raw) if isinstance(raw, str) else None
+        neg = isinstance(raw, str) and raw.strip().startswith("-") and _TIME.match(raw.strip()[1:])
+        if m:
+            offset_s = float(m.group(1))
+        elif neg:
+            offset_s = -float(neg.group(1))
+        else:
+            raise ConstraintError(f"{source}, line {lines['offset']}: offset is the hands time shown at body frame 0, "
+                                  f"in seconds like 12.5s or -3s, not {shorten(raw)}")
+        if not math.isfinite(offset_s) or abs(offset_s) > 1e6:
+            raise ConstraintError(f"{source}, line {lines['offset']}: offset {shorten(raw)} is out of range")
     return SpliceConfig(tuple(pairs), tol, joints or {}, {k: str(v).lower() for k, v in up.items()}, hands_side, source,
-                        mirror_hands=mirror, markers=markers or {})
+                        mirror_hands=mirror, markers=markers or {}, ends=ends, offset_s=offset_s)
 
 
 _ARM_KEYS = {"wrist", "elbow", "upper_arm", "fingers"}

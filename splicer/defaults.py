@@ -1,6 +1,6 @@
 """Default settings of the alignment, in one place.
 
-:class:`splicer.splice.SpliceOptions`, the passes in :mod:`splicer.align` and the feature
+:class:`splicer.options.SpliceOptions`, the passes in :mod:`splicer.align` and the feature
 functions in :mod:`splicer.metrics` all take their defaults from here, so a notebook that
 calls ``phase_features(markers)`` sees the same dead zone as the splice.  The values were
 chosen by measurement on held-out synthetic separations (README, *Accuracy*).
@@ -12,6 +12,9 @@ from __future__ import annotations
 
 #: Pass-1 band width: 30 % of the body take (the paper).  See :func:`splicer.band.band_frames`.
 BAND1 = "30%"
+#: Pass-1 band width with open ends: the band around the located overlap (the locating pass
+#: itself covers the whole hands take).
+OPEN_BAND1 = "3s"
 #: Pass-2 band width as a share of pass 1's (the paper: 30 % and 10 %).
 BAND2_PER_BAND1 = 1.0 / 3.0
 #: Standard deviation of the Gaussian that smooths the markers before differentiating, seconds.

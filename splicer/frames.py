@@ -113,7 +113,8 @@ class FrameSpaces:
         """
         n = self.n_body
         out: list[Constraint] = []
-        for p in pins:
+        kept: list[int] = []
+        for k, p in enumerate(pins):
             yf = p.hands / self.ratio
             y = int(round(yf))
             t = int(math.ceil(p.tolerance / self.ratio + abs(y - yf) - 1e-9))
@@ -129,7 +130,13 @@ class FrameSpaces:
             y = min(max(y, 1), m_common - 2)
             if out and y < out[-1].y:
                 y = out[-1].y
+            if out and p.body == out[-1].x + 1 and (y - t) - (out[-1].y + out[-1].tolerance) > 1:
+                err = ConstraintError(f"{p.describe()} cannot follow {pins[kept[-1]].describe()}: adjacent body "
+                                      "frames cannot match hands frames further apart than their tolerances allow")
+                err.pair = (kept[-1], k)
+                raise err
             out.append(Constraint(p.body, y, t))
+            kept.append(k)
         return out
 
 

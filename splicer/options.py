@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 
+from . import defaults as D
 from .errors import SplicerError
 
 __all__ = ["SpliceOptions", "resolve_options"]
@@ -20,23 +21,25 @@ class SpliceOptions:
     """
 
     side: str = "both"
-    band1: int | float | str = "30%"
+    band1: int | float | str | None = None  # None: 30% with fixed ends (the paper), 3 s around the located path with open ends
     band2: int | float | str | None = None  # None: a third of band1 (the paper: 30% and 10%)
     theta: str = "window"  # or "heading"
     passes: str = "both"  # "pass1", "pass2" (pass 2 alone, for comparison) or "both"
-    pass2_weight: float = 2.0  # radians per band width of departure from the pass-1 warp; 0 = literal
-    pass2_d1_weight: float = 0.0  # weight of D1 (normalised) added to D2 in pass 2; 0 = literal
+    pass2_weight: float = D.PASS2_WEIGHT  # radians per band width of departure from the pass-1 warp; 0 = literal
+    pass2_d1_weight: float = D.PASS2_D1_WEIGHT  # weight of D1 (normalised) added to D2 in pass 2; 0 = literal
     merge: str = "timemap"  # or "median"
-    smooth_s: float = 0.025  # marker smoothing before derivatives, seconds
-    dead_zone: float = 0.01  # sign dead zone, fraction of the motion's RMS speed
-    timemap_sigma_s: float = 0.2  # time-map smoothing, seconds
-    blend_window: int = 4  # median merge: frames blended each side of a jump
+    smooth_s: float = D.SMOOTH_S  # marker smoothing before derivatives, seconds
+    dead_zone: float = D.DEAD_ZONE  # sign dead zone, fraction of the motion's RMS speed
+    timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
+    blend_window: int = D.BLEND_WINDOW_FRAMES  # median merge: frames blended each side of a jump
     uncovered_blend_s: float = 0.25  # body frames without hands material: blend in/out over this, seconds
     wrist: str = "body"  # or "hands": the wrist rotation comes from the hands capture too
     coarse: str = "auto"  # "on", "off", or "auto": on for takes over coarse_above_s seconds
-    coarse_fps: float = 5.0  # rate of the coarse guide pass, frames per second
-    coarse_above_s: float = 120.0
+    coarse_fps: float = D.COARSE_FPS  # rate of the coarse guide pass, frames per second
+    coarse_above_s: float = D.COARSE_ABOVE_S
     hands_side: str | None = None  # side of a hand-only file whose names do not say
+    ends: str | None = None  # "open" (find the overlap) or "fixed" (first and last frames match); None: config, else open
+    offset_s: float | None = None  # open ends: body frame 0 shows this hands time, seconds (a starting guess)
     mirror_hands: str | None = None  # "auto", "yes", "no"; None: the config file's, else auto
     repair: str = "on"  # "on": dropouts and gaps of the hands capture repaired (and reported) first; "off"
 
@@ -49,7 +52,7 @@ class SpliceOptions:
 _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off"),
-            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off")}
+            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "open", "fixed")}
 _NONNEGATIVE = ("uncovered_blend_s", "smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
                 "coarse_above_s")
 
@@ -80,6 +83,9 @@ def resolve_options(options: SpliceOptions | None = None, overrides: dict | None
         v = getattr(opts, k)
         if isinstance(v, bool) or not (isinstance(v, (int, float)) and v >= 0 and math.isfinite(v)):
             raise SplicerError(f"{k} must be a number >= 0, not {v!r}")
+    if opts.offset_s is not None and (isinstance(opts.offset_s, bool) or not isinstance(opts.offset_s, (int, float))
+                                      or not math.isfinite(opts.offset_s)):
+        raise SplicerError(f"offset_s must be a number of seconds, not {opts.offset_s!r}")
     if isinstance(opts.blend_window, bool) or not (isinstance(opts.blend_window, int) and opts.blend_window >= 0):
         raise SplicerError(f"blend_window must be a whole number of frames >= 0, not {opts.blend_window!r}")
     return opts

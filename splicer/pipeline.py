@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import defaults as D
 from .errors import BandError, ConstraintError, SplicerError, SplicerWarning
 from .frames import FrameSpaces, Pin, pins_from_config
 from .model import Motion
@@ -329,43 +330,73 @@ def _pin_error(e: SplicerError, pins: tuple[Pin, ...], side: str) -> SplicerErro
     return type(e)(f"{side} side: {e}")
 
 
-def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None) -> Alignment:
-    """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed.
+def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "open",
+               offset_s: float | None = None) -> Alignment:
+    """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed, with a confidence.
+
+    Parameters
+    ----------
+    ends : {"open", "fixed"}
+        ``"open"``: the overlap of the two takes is found (the body's span anywhere inside
+        the hands take, or the hands covering part of the body); ``"fixed"``: first frames
+        match and last frames match (the paper).
+    offset_s : float, optional
+        Open ends: body frame 0 shows hands time ``offset_s`` (a starting guess, e.g. timecode).
 
     Raises
     ------
     SplicerError
         A band that cannot reach the pins, named by their file and line.
     """
-    from .align import compose, pass1, pass2, path_median, remap_constraints, warp_markers
+    from .align import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
     from .band import band_frames
+    from .confidence import pass_confidence
 
     log = log or Log()
     s, bmk, hmk = markers.side, markers.body, markers.hands
     n, m = bmk.n_frames, hmk.n_frames
     fps = markers.spaces.body_fps
-    w1 = band_frames(opts.band1, n=n, fps=fps)
-    w2 = w1 / 3.0 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
-    cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
+    open_ends = ends == "open"
+    band1 = opts.band1 if opts.band1 is not None else (D.OPEN_BAND1 if open_ends else D.BAND1)
+    w1 = band_frames(band1, n=n, fps=fps)
+    w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
+    try:
+        cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
+    except ConstraintError as e:
+        raise _pin_error(e, markers.pins, s) from None
     p1 = p2 = None
+    covered = None
     try:
         if opts.passes in ("pass1", "both"):
             log.progress(f"{s}: pass 1", 0.0)
             guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
             p1 = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
-                       theta=opts.theta, coarse_fps=opts.coarse_fps if guided else None,
-                       coarse_width=band_frames("30%", n=n, fps=fps),
+                       theta=opts.theta, ends=ends, offset_s=offset_s,
+                       coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
+                       coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
                        progress=lambda f: log.progress(f"{s}: pass 1", f))
+            for msg in getattr(p1, "notes", ()):
+                log.note(f"{s} side: {msg}")
             path, per_frame = p1.path, path_median(p1.path, n)
+            if open_ends:
+                covered = _cover_pins(tuple(int(v) for v in p1.covered), markers.pins, n)
+                if covered != tuple(p1.covered):
+                    per_frame = hold_ends(per_frame)
+                    per_frame[:covered[0]] = np.nan
+                    per_frame[covered[1] + 1:] = np.nan
             log.tick("pass1")
         if opts.passes == "both":
             log.progress(f"{s}: pass 2", 0.0)
-            p2 = pass2(bmk, warp_markers(hmk, per_frame), width=w2, constraints=remap_constraints(cons, per_frame),
+            filled = hold_ends(per_frame)
+            p2 = pass2(bmk, warp_markers(hmk, filled), width=w2, constraints=remap_constraints(cons, filled),
                        diagonal_weight=opts.pass2_weight, d1_weight=opts.pass2_d1_weight, smooth_s=opts.smooth_s,
-                       dead_zone=opts.dead_zone, theta=opts.theta,
+                       dead_zone=opts.dead_zone, theta=opts.theta, covered=covered,
                        progress=lambda f: log.progress(f"{s}: pass 2", f))
-            path = np.stack([p2.path[:, 0], np.interp(p2.path[:, 1], np.arange(n), per_frame)], axis=1)
-            per_frame = compose(per_frame, p2.path, n)
+            path = np.stack([p2.path[:, 0], np.interp(p2.path[:, 1], np.arange(n), filled)], axis=1)
+            per_frame = compose(filled, p2.path, n)
+            if covered is not None:
+                per_frame[:covered[0]] = np.nan
+                per_frame[covered[1] + 1:] = np.nan
             log.tick("pass2")
         elif opts.passes == "pass2":
             p2 = pass2(bmk, hmk, width=w1, constraints=cons, diagonal_weight=0.0)
@@ -375,7 +406,23 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         raise _pin_error(e, markers.pins, s) from None
     except SplicerError as e:
         raise type(e)(f"{s} side: {e}") from None
-    return Alignment(per_frame, path, p1, p2, cons)
+    conf = None
+    if p1 is not None:
+        conf = pass_confidence(p1, fps)
+        log.tick("confidence")
+    if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:
+        log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "
+                 f"({(covered[1] - covered[0] + 1) / fps:.1f} s of {n / fps:.1f} s): check that both takes show the "
+                 "same performance, or pin a matching pair")
+    return Alignment(per_frame, path, p1, p2, cons, covered, conf)
+
+
+def _cover_pins(covered: tuple, pins, n: int) -> tuple:
+    """The covered body range widened to every pinned body frame (a pin says that frame has hands material)."""
+    a, b = covered
+    for p in pins:
+        a, b = min(a, p.body), max(b, p.body)
+    return (max(a, 0), min(b, n - 1))
 
 
 # ---------------------------------------------------------------- stage 5: time map
@@ -680,7 +727,8 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     inputs, out, sides = checked.inputs, checked.inputs.body, {}
     for s in rig.sides:
         markers = side_markers(inputs, rig, s, log)
-        alignment = align_side(markers, opts, log)
+        alignment = align_side(markers, opts, log, ends=opts.ends or inputs.config.ends or "open",
+                               offset_s=opts.offset_s if opts.offset_s is not None else inputs.config.offset_s)
         tm = time_map(alignment, markers, opts)
         transfer = transfer_side(out, inputs, rig, s, alignment, tm, opts, log, pins=markers.pins)
         sanity = check_fingers(transfer, s, inputs, rig, tm, checked.report["handedness"], log)

@@ -80,7 +80,7 @@ class DTWResult:
     path: np.ndarray
     cost: float
     band: Band
-    covered: tuple = (0, 0)
+    covered: tuple | None = None
     open_begin: bool = False
     open_end: bool = False
     uncovered_cost: float = 0.0

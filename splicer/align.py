@@ -53,6 +53,12 @@ class PassResult:
         Penalty per non-diagonal step the pass used (0: the paper).
     horizontal_weight : float
         Weight of cells entered by a ``(i, j-1)`` step the pass used (1: the paper).
+    located : PassResult or None
+        Open ends: the coarse locating pass (its band is the whole coarse matrix, or the band
+        around ``offset_s``), at ``located.fps``: ``pass_confidence(located, located.fps)``
+        measures how unique the located overlap is.
+    fps : float or None
+        Frame rate of the pass's sequences, when recorded.
     """
 
     path: np.ndarray
@@ -65,6 +71,8 @@ class PassResult:
     ends: str = "fixed"
     step_penalty: float = 0.0
     horizontal_weight: float = 1.0
+    located: object = None
+    fps: float | None = None
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
@@ -281,12 +289,18 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
         cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
     coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u,
                  step_penalty=step_penalty, horizontal_weight=horizontal_weight)
+    located = PassResult(coarse.path, coarse.cost, cband, "pass1 (locating)", d1c, coarse.covered, float(u), "open",
+                         step_penalty, float(horizontal_weight), None, cfps)
     if progress is not None:
         progress(0.0)
     if factor > 1.0:
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints, open_begin=True, open_end=True)
         except BandError:  # the coarse path missed a constraint window: search the whole take at full rate
+            if n * m > 4 * max_coarse_cells:
+                raise BandError(f"the located overlap misses a constraint window and the full {n} x {m} frame "
+                                f"matrix is too large to search; widen the band (now {width:g} frames) or check "
+                                f"the constraints") from None
             band = full_band(n, m, constraints)
     else:
         band = cband
@@ -296,7 +310,7 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
     res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
                horizontal_weight=horizontal_weight)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
-                      float(horizontal_weight))
+                      float(horizontal_weight), located, body.fps)
 
 
 def path_median(path: np.ndarray, n: int) -> np.ndarray:

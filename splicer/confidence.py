@@ -72,6 +72,12 @@ class Confidence:
         The excess threshold ``tau`` used, local-cost units.
     error_scale_s : float
         Seconds of estimated error at which confidence is 0.5.
+    row_excess : np.ndarray [shape=(n,), dtype=float64] or None
+        Per body frame, how much dearer the best alignment that covers it is than the
+        optimum (local-cost units; 0 on covered frames, ``+inf`` where no path reaches).
+        An uncovered frame with ``row_excess <= threshold`` could almost as well be covered:
+        after an open-ended locating pass, the overlap's place is ambiguous there
+        (:meth:`ambiguous`).
     """
 
     spread_frames: np.ndarray
@@ -79,6 +85,14 @@ class Confidence:
     confidence: np.ndarray
     threshold: float
     error_scale_s: float
+    row_excess: np.ndarray | None = None
+
+    def ambiguous(self) -> np.ndarray:
+        """Boolean mask (n,): uncovered frames an alignment within ``threshold`` of the optimum
+        covers (an alternative place for the overlap)."""
+        if self.row_excess is None:
+            return np.zeros(self.confidence.shape, dtype=bool)
+        return ~np.isfinite(self.est_error_s) & (self.row_excess <= self.threshold)
 
     def low(self, max_error_s: float | None = None) -> np.ndarray:
         """Boolean mask (n,): covered frames whose estimated error exceeds ``max_error_s``
@@ -206,11 +220,21 @@ def _backward(c, lo, hi, off, ec, oe, pen, hx, m, out, rowmin):
 
 
 @njit(cache=True)
-def _row_stats(fwd, fmin, bwd, bmin, lo, hi, off, optimum, tau, jc, spread, err):
-    # Per covered row i (jc[i] finite): excess = fwd + bwd - optimum over the row's cells;
-    # spread = max - min of columns with excess <= tau, err = max |j - jc| over them.
+def _row_stats(fwd, fmin, bwd, bmin, lo, hi, off, optimum, tau, jc, spread, err, exmin):
+    # Every row: exmin = min over the row's cells of excess = fwd + bwd - optimum.
+    # Covered rows (jc[i] finite): spread = max - min of columns with excess <= tau,
+    # err = max |j - jc| over them.
     n = lo.shape[0]
     for i in range(n):
+        m = np.inf
+        for k in range(hi[i] - lo[i] + 1):
+            b = bwd[off[i] + k]
+            f = fwd[off[i] + k]
+            if np.isfinite(b) and np.isfinite(f):
+                x = (np.float64(f) + fmin[i]) + (np.float64(b) + bmin[i]) - optimum
+                if x < m:
+                    m = x
+        exmin[i] = m
         if not np.isfinite(jc[i]):
             continue
         L = lo[i]
@@ -384,12 +408,13 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
     jc = path_median(path, n)
     spread = np.full(n, np.nan)
     err = np.full(n, np.nan)
+    exmin = np.full(n, np.inf)
     _row_stats(fwd, fmin, bwd, bmin, np.ascontiguousarray(band.lo, np.int64),
-               np.ascontiguousarray(band.hi, np.int64), off, optimum, tau, jc, spread, err)
+               np.ascontiguousarray(band.hi, np.int64), off, optimum, tau, jc, spread, err, exmin)
     est = err / float(fps)
     conf = np.where(np.isfinite(est), 1.0 / (1.0 + (np.nan_to_num(est) / error_scale_s) ** 2), 0.0)
     return Confidence(spread_frames=spread, est_error_s=est, confidence=conf, threshold=tau,
-                      error_scale_s=float(error_scale_s))
+                      error_scale_s=float(error_scale_s), row_excess=np.maximum(exmin, 0.0))
 
 
 def pass_confidence(result, fps: float, **kwargs) -> Confidence:
@@ -425,4 +450,4 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
 
     return Confidence(spread_frames=put(conf.spread_frames, np.nan), est_error_s=put(conf.est_error_s, np.nan),
                       confidence=put(conf.confidence, 0.0), threshold=conf.threshold,
-                      error_scale_s=conf.error_scale_s)
+                      error_scale_s=conf.error_scale_s, row_excess=put(conf.row_excess, np.inf))

@@ -80,7 +80,7 @@ class DTWResult:
     path: np.ndarray
     cost: float
     band: Band
-    covered: tuple = (0, 0)
+    covered: tuple | None = None
     open_begin: bool = False
     open_end: bool = False
     uncovered_cost: float = 0.0
@@ -128,17 +128,29 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen, hx)
         cr = crow[c0 + 1:c0 + 1 + kend]
         st = steps[s0 + 1:s0 + 1 + kend]
         left = cur[0]
-        for t in range(kend):             # branch-free: selects, not jumps
-            a = dg[t]
-            u = up[t] + pen
-            su = u < a
-            best = u if su else a
-            c = cr[t]
-            lp = left + pen + (hx * c if (hx != 0.0 and c < np.inf) else 0.0)
-            sl = lp < best
-            st[t] = 2 if sl else (1 if su else 0)
-            left = c + (lp if sl else best)
-            cur[t + 1] = left
+        if hx == 0.0:
+            for t in range(kend):         # branch-free: selects, not jumps
+                a = dg[t]
+                u = up[t] + pen
+                su = u < a
+                best = u if su else a
+                lp = left + pen
+                sl = lp < best
+                st[t] = 2 if sl else (1 if su else 0)
+                left = cr[t] + (lp if sl else best)
+                cur[t + 1] = left
+        else:
+            for t in range(kend):
+                a = dg[t]
+                u = up[t] + pen
+                su = u < a
+                best = u if su else a
+                c = cr[t]
+                lp = left + pen + (hx * c if c < inf else 0.0)
+                sl = lp < best
+                st[t] = 2 if sl else (1 if su else 0)
+                left = c + (lp if sl else best)
+                cur[t + 1] = left
     k = max(kend + 1, 1)
     if k < w and L + k == phi + 1:        # diagonal and left only
         best = prev[phi - plo]
@@ -156,7 +168,7 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen, hx)
         left = cur[k - 1]
         for t in range(w - k):
             c = cr[t]
-            left = c + (left + pen + (hx * c if (hx != 0.0 and c < np.inf) else 0.0))
+            left = c + (left + pen + (hx * c if (hx != 0.0 and c < inf) else 0.0))
             cur[k + t] = left
             st[t] = 2
 

@@ -215,3 +215,21 @@ def test_pass2_over_a_covered_span_and_its_confidence(rng):
     assert full.covered == (0, n - 1)
     with pytest.raises(ValueError, match="no covered frame"):
         hold_ends(np.full(3, np.nan))
+
+
+def test_a_repeated_gesture_makes_the_overlap_ambiguous(rng):
+    """Body = A, B, A; hands = A only: one A is covered, the other is an equally good place."""
+    A = marker_like(rng, 60)
+    B = marker_like(np.random.default_rng(1), 60)
+    body = np.concatenate([A, B, A])
+    hands = A + rng.normal(scale=0.05, size=A.shape)
+    C = sqdist(body, hands)
+    band = full_band(180, 60)
+    u = float(np.quantile(C, 0.01))
+    res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=u)
+    assert res.covered in ((0, 59), (120, 179))
+    conf = row_confidence(C, band, res.path, 30.0, uncovered_cost=u)
+    other = slice(120, 180) if res.covered == (0, 59) else slice(0, 60)
+    assert conf.ambiguous()[other].mean() > 0.9            # the other repetition
+    assert not conf.ambiguous()[70:110].any()              # B is no place for A
+    assert (conf.row_excess[res.covered[0]:res.covered[1] + 1] < 1e-3 * res.cost + 1e-6).all()

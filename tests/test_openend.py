@@ -372,6 +372,10 @@ def test_pass1_locates_the_body_inside_a_longer_take(sample_markers, seed):
         err = np.abs(path_median(res.path, n) - truth)
         assert err.mean() < 1.0 and np.quantile(err, 0.95) < 4.0
         assert res.uncovered_cost > 0
+    from splicer.confidence import pass_confidence
+    loc = res.located                             # the coarse locating pass, at its own rate
+    assert loc.fps < fps and loc.ends == "open" and res.fps == fps
+    assert pass_confidence(loc, loc.fps).confidence.shape == (loc.band.n,)
     fixed = pass1(body, hands, width=30.0)        # the paper's fixed ends: forced through the extra material
     assert np.abs(path_median(fixed.path, n) - truth).mean() > 10 * err.mean()
 

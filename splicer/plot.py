@@ -71,6 +71,14 @@ def _draw_pass(ax, pr, title, constraints=()):
     return im
 
 
+def _shade(ax, mask: np.ndarray, color: str, label: str) -> None:
+    """Shade the runs of ``mask`` (body frames) on a time-map axis, one legend entry."""
+    from .merge import frame_ranges
+
+    for k, (a, b) in enumerate(frame_ranges(mask)):
+        ax.axvspan(a - 0.5, b + 0.5, color=color, alpha=0.2, lw=0, label=label if k == 0 else None)
+
+
 def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     """Write a PNG of every side's passes (atomically: a temporary file, then rename).
 
@@ -85,7 +93,8 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from .align import path_median, remap_constraints
+    from .align import hold_ends, path_median, remap_constraints
+    from .pipeline import LOW_CONFIDENCE_S
 
     sides = list(result.sides.values())
     if not sides:
@@ -105,7 +114,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02).set_label("D1 (squared sign differences)", fontsize=8)
             k += 1
         if s.pass2 is not None:
-            map1 = None if s.pass1 is None else path_median(s.pass1.path, n)
+            map1 = None if s.pass1 is None else hold_ends(path_median(s.pass1.path, n))
             c2 = cons if map1 is None else remap_constraints(cons, map1)
             im = _draw_pass(row[k], s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2)
             row[k].set_ylabel("warped hands frame" if s.pass1 is not None else "hands frame (body rate)")
@@ -114,7 +123,13 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         ax = row[k]
         t = np.arange(n)
         ax.plot(t, s.hands_frame, color="black", lw=1.2, label="hands frame used")
-        ax.plot(t, np.linspace(0.0, s.hands_frame[-1], n), color="gray", lw=0.8, ls="--", label="uniform time scaling")
+        top = float(np.nanmax(s.hands_frame)) if np.isfinite(s.hands_frame).any() else 0.0
+        ax.plot(t, np.linspace(0.0, top, n), color="gray", lw=0.8, ls="--", label="uniform time scaling")
+        _shade(ax, ~np.isfinite(s.hands_frame), "tab:gray", "no hands material")
+        conf = s.alignment.confidence
+        if conf is not None:
+            _shade(ax, np.isfinite(conf.est_error_s) & (conf.est_error_s > LOW_CONFIDENCE_S), "tab:red",
+                   f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
         for p in s.pins:
             ax.errorbar([p.body], [p.hands], yerr=[[p.tolerance], [p.tolerance]], fmt="o", color="orange", ms=4, capsize=3)
         ax.set_title(f"{s.side}: time map", fontsize=9)

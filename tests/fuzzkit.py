@@ -402,7 +402,7 @@ def run_case(case: Case, root: str) -> tuple[str, str]:
 
 def _worker(cases, start, conn):
     import splicer.cli  # noqa: F401 - the address space measured below includes the libraries
-    import splicer.splice  # noqa: F401
+    import splicer.pipeline  # noqa: F401
 
     signal.signal(signal.SIGALRM, _on_alarm)
     now = _address_space()

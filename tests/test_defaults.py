@@ -5,7 +5,7 @@ import inspect
 from splicer import defaults
 from splicer.align import pass1, pass2
 from splicer.metrics import phase_features
-from splicer.splice import SpliceOptions
+from splicer.options import SpliceOptions
 
 
 def _default(func, name):
@@ -21,7 +21,9 @@ def test_feature_functions_and_passes_use_the_splice_defaults():
 
 def test_splice_options_match_the_defaults_module():
     o = SpliceOptions()
-    assert (o.band1, o.smooth_s, o.dead_zone) == (defaults.BAND1, defaults.SMOOTH_S, defaults.DEAD_ZONE)
+    # band1 None: defaults.BAND1 (30%) with fixed ends, defaults.OPEN_BAND1 (3 s) with open ends
+    assert (o.band1, o.smooth_s, o.dead_zone) == (None, defaults.SMOOTH_S, defaults.DEAD_ZONE)
+    assert (defaults.BAND1, defaults.OPEN_BAND1) == ("30%", "3s")
     assert (o.pass2_weight, o.pass2_d1_weight) == (defaults.PASS2_WEIGHT, defaults.PASS2_D1_WEIGHT)
     assert (o.timemap_sigma_s, o.blend_window) == (defaults.TIMEMAP_SIGMA_S, defaults.BLEND_WINDOW_FRAMES)
     assert (o.coarse_fps, o.coarse_above_s) == (defaults.COARSE_FPS, defaults.COARSE_ABOVE_S)

@@ -92,16 +92,21 @@ def test_turning_the_hands_performer_changes_nothing(take, roles, theta):
         assert np.mean(np.abs(a - b)) < 0.05, f"{side}: turning moved the alignment by {np.mean(np.abs(a - b)):.3f} frames"
 
 
-def test_separated_take_is_aligned_better_than_uniform(take, roles):
+@pytest.mark.parametrize("ends,bar", [("fixed", 1.0), ("open", 1.3)])
+def test_separated_take_is_aligned_better_than_uniform(take, roles, ends, bar):
     sep = separate(take, rng=np.random.default_rng(3))
-    r = splice(sep.body, sep.hands)
+    r = splice(sep.body, sep.hands, ends=ends)
     n = take.n_frames
     uniform = np.linspace(0, sep.hands.n_frames - 1, n)
     for side in ("left", "right"):
-        ours = np.abs(np.interp(_frames(r, side), sep.truth, np.arange(n)) - np.arange(n)).mean()
+        hf = _frames(r, side)
+        covered = np.isfinite(hf)
+        assert covered.mean() > 0.97, (side, covered.mean())
+        ours = np.abs(np.interp(hf[covered], sep.truth, np.arange(n)) - np.arange(n)[covered]).mean()
         unif = np.abs(np.interp(uniform, sep.truth, np.arange(n)) - np.arange(n)).mean()
-        # measured: 0.63 (left) and 0.73 (right) body frames against 6.58 for uniform scaling
-        assert ours < 1.0, (side, ours, unif)
+        # measured, fixed ends: 0.63 (left) and 0.73 (right) body frames; open ends (the default,
+        # which must also find where the takes overlap): 1.01 (left); uniform scaling: 6.58
+        assert ours < bar, (side, ours, unif)
         assert unif > 5.0, (side, ours, unif)
 
 

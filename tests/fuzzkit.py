@@ -108,7 +108,7 @@ YAML_VALUES = ["!foo 1", "!!float x", "!!bool maybe", "!!timestamp 2001-13-45", 
                "1e-300s", "{body: 1, hands: 2}", "[1, 2]", "left", "both", "z", "\"\\u200b\"", "|\n  block",
                "? [a]\n: b", "!!python/object:os.system [echo]", "&x [a, a, a, a, a, a, a, a, a, a]"]
 BAND_VALUES = ["30%", "0", "-1", "1e308s", "200%", "nan", "abc", "5", "0.5s", "100000", "1", "0%", "inf", "3s",
-               "1e-300", "2", "10%", "９", ""]
+               "1e-300", "2", "10%", "９", "", "1" * 5000 + "x"]
 OPTIONS = {"--side": ["left", "right", "both", "up"], "--hands-side": ["left", "right", "middle"],
            "--theta": ["window", "heading"], "--passes": ["both", "pass1"], "--merge": ["timemap", "median"],
            "--wrist": ["body", "hands"], "--band": BAND_VALUES, "--band2": BAND_VALUES}

@@ -448,3 +448,12 @@ def test_usage_error_is_one_line(tmp_path, takes):
     assert status == 2
     line = one_error_line(err)
     assert line.startswith("splice: error: argument --side: invalid choice") and line.endswith("(see splice --help)")
+
+
+def test_absurdly_long_band_width_is_refused_at_once(tmp_path, takes):
+    """A 100,000-digit --band would take the band parser's regular expression hours."""
+    body, hands = takes
+    t0 = time.monotonic()
+    status, _, err = run_cli([body, hands, "-o", tmp_path / "o.bvh", "--band", "1" * 100_000 + "x"])
+    assert status == 2 and "band width '11111111111111111111'… is 100,001 characters long" in one_error_line(err)
+    assert time.monotonic() - t0 < 30

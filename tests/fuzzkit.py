@@ -291,6 +291,8 @@ def make_cases(seed: int, n: int, pairs=None) -> list[Case]:
         label, body, hands = rng.choice(pairs) if rng.random() < 0.6 or len(pairs) == 1 else pairs[0]
         files = {"body": body, "hands": hands}
         argv = ["{body}", "{hands}", "-o", "{out}", "-q"]
+        if "rightHand" in label:  # ManipNet's joint names do not tell the side; its file name does
+            argv += ["--hands-side", "right"]
         if rng.random() < 0.5:  # lighter runs: one side, pass 1 only
             argv += ["--side", rng.choice(["left", "right"])]
         if rng.random() < 0.3:

@@ -190,6 +190,13 @@ def test_joint_mapping_of_wrong_shape():
         parse_config("joints: {hands: {right: {wrist: W, fingers: {index: A}}}}\n", "a.yaml")
 
 
+def test_billion_laughs_in_block_style():
+    text = "side:\n  - &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n" + "".join(
+        f"  - &a{k} [" + ", ".join([f"*a{k - 1}"] * 9) + "]\n" for k in range(1, 9))
+    with pytest.raises(ConstraintError, match=r"l.yaml, line \d+: more than 100,000 YAML values"):
+        parse_config(text, "l.yaml")
+
+
 def test_recursive_alias_is_refused():
     with pytest.raises(ConstraintError, match="nested more than 32 deep|more than 100,000"):
         parse_config("side: &a [*a]\n", "r.yaml")

@@ -352,6 +352,7 @@ def run_case(case: Case, root: str) -> tuple[str, str]:
         inputs = {paths[k] for k in case.files}
         before = set(os.listdir(d))
         out, err = io.StringIO(), io.StringIO()
+        old_alarm = signal.signal(signal.SIGALRM, _on_alarm)
         signal.alarm(TIME_LIMIT_S)
         try:
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
@@ -373,6 +374,7 @@ def run_case(case: Case, root: str) -> tuple[str, str]:
             return "traceback", detail
         finally:
             signal.alarm(0)
+            signal.signal(signal.SIGALRM, old_alarm)
         text = err.getvalue()
         new = sorted(set(os.listdir(d)) - before)
         temps = [x for x in new if TEMP_NAME.match(x)]
@@ -406,7 +408,6 @@ def _worker(cases, start, conn):
     import splicer.cli  # noqa: F401 - the address space measured below includes the libraries
     import splicer.splice  # noqa: F401
 
-    signal.signal(signal.SIGALRM, _on_alarm)
     now = _address_space()
     if now:
         limit = now + MEMORY_HEADROOM

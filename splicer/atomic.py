@@ -169,7 +169,7 @@ class Transaction:
         dest = Path(dest)
         err = error or _default_error(dest)
         if any(os.path.abspath(d) == os.path.abspath(dest) for d in self.staged):
-            raise err(f"the same file is given for two outputs; give each output its own name")
+            raise err("the same file is given for two outputs; give each output its own name")
         if len(os.fsencode(dest.name)) > _NAME_MAX:
             raise err(f"cannot write the {what}: the file name is {len(dest.name)} characters long, "
                       f"more than a file system allows ({_NAME_MAX} bytes)")
@@ -182,10 +182,7 @@ class Transaction:
         directory = dest.parent
         _remove_stale(dest)
         tmp = str(directory / f".{dest.name[:_STEM_CHARS]}.splice-{os.getpid()}-{secrets.token_hex(4)}.tmp")
-        try:
-            mode = stat.S_IMODE(os.stat(dest).st_mode)
-        except OSError:
-            mode = None
+        mode = None if st is None else stat.S_IMODE(st.st_mode)
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0),
                          0o666 if mode is None else 0o600)

@@ -119,7 +119,7 @@ def _read_lines(p: Path, spath: str) -> list[str]:
     """The file's lines, line endings removed (index i is line i + 1)."""
     data = limits.read_input(p, max_bytes=limits.MAX_BVH_BYTES, what="BVH file",
                              error=lambda message: BVHError(message, path=spath))
-    n_lines = data.count(b"\n") + 1
+    n_lines = max(data.count(b"\n"), data.count(b"\r")) + 1  # CR-only files too
     if n_lines > limits.MAX_LINES:
         raise BVHError(f"the file has {n_lines:,} lines, more than the limit of {limits.MAX_LINES:,}", path=spath)
     if not data.strip():

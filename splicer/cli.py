@@ -43,6 +43,13 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {one_line(message, 300)} (see {self.prog} --help)\n")
 
 
+def _band_text(text: str) -> str:
+    """A band width as typed; refuses absurdly long text before any parsing (regex) sees it."""
+    if len(text) > 40:
+        raise argparse.ArgumentTypeError(f"band width {shorten(text, 20)} is {len(text):,} characters long")
+    return text
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="splice",
@@ -58,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="PNG", help="write cost matrices, bands, constraints and paths")
     p.add_argument("--side", choices=("left", "right", "both"), default="both", help="sides to splice (default both)")
     p.add_argument("--hands-side", choices=("left", "right"), help="side of a hand-only file whose joint names do not say")
-    p.add_argument("--band", "--band1", dest="band1", default=None,
+    p.add_argument("--band", "--band1", dest="band1", default=None, type=_band_text,
                    help="pass-1 band width: frames (120), share of the body take (30%%) or seconds (20s); default 3s "
                         "around the located overlap with open ends, 30%% with fixed ends")
     p.add_argument("--ends", choices=("open", "fixed"), default=None,
@@ -66,7 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "cover part of the body); fixed: first frames match, last frames match (the paper)")
     p.add_argument("--offset", type=float, default=None, metavar="SECONDS",
                    help="open ends: body frame 0 shows this hands time (a starting guess, e.g. from timecode)")
-    p.add_argument("--band2", default=None, help="pass-2 band width (default: a third of --band)")
+    p.add_argument("--band2", default=None, type=_band_text, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")
     p.add_argument("--passes", choices=("both", "pass1"), default="both", help="run both passes (default) or pass 1 only")

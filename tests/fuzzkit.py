@@ -108,7 +108,7 @@ YAML_VALUES = ["!foo 1", "!!float x", "!!bool maybe", "!!timestamp 2001-13-45", 
                "1e-300s", "{body: 1, hands: 2}", "[1, 2]", "left", "both", "z", "\"\\u200b\"", "|\n  block",
                "? [a]\n: b", "!!python/object:os.system [echo]", "&x [a, a, a, a, a, a, a, a, a, a]"]
 BAND_VALUES = ["30%", "0", "-1", "1e308s", "200%", "nan", "abc", "5", "0.5s", "100000", "1", "0%", "inf", "3s",
-               "1e-300", "2", "10%", "９", ""]
+               "1e-300", "2", "10%", "９", "", "1" * 5000 + "x"]
 OPTIONS = {"--side": ["left", "right", "both", "up"], "--hands-side": ["left", "right", "middle"],
            "--theta": ["window", "heading"], "--passes": ["both", "pass1"], "--merge": ["timemap", "median"],
            "--wrist": ["body", "hands"], "--band": BAND_VALUES, "--band2": BAND_VALUES}
@@ -291,6 +291,8 @@ def make_cases(seed: int, n: int, pairs=None) -> list[Case]:
         label, body, hands = rng.choice(pairs) if rng.random() < 0.6 or len(pairs) == 1 else pairs[0]
         files = {"body": body, "hands": hands}
         argv = ["{body}", "{hands}", "-o", "{out}", "-q"]
+        if "rightHand" in label:  # ManipNet's joint names do not tell the side; its file name does
+            argv += ["--hands-side", "right"]
         if rng.random() < 0.5:  # lighter runs: one side, pass 1 only
             argv += ["--side", rng.choice(["left", "right"])]
         if rng.random() < 0.3:
@@ -350,6 +352,7 @@ def run_case(case: Case, root: str) -> tuple[str, str]:
         inputs = {paths[k] for k in case.files}
         before = set(os.listdir(d))
         out, err = io.StringIO(), io.StringIO()
+        old_alarm = signal.signal(signal.SIGALRM, _on_alarm)
         signal.alarm(TIME_LIMIT_S)
         try:
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
@@ -371,6 +374,7 @@ def run_case(case: Case, root: str) -> tuple[str, str]:
             return "traceback", detail
         finally:
             signal.alarm(0)
+            signal.signal(signal.SIGALRM, old_alarm)
         text = err.getvalue()
         new = sorted(set(os.listdir(d)) - before)
         temps = [x for x in new if TEMP_NAME.match(x)]
@@ -404,7 +408,6 @@ def _worker(cases, start, conn):
     import splicer.cli  # noqa: F401 - the address space measured below includes the libraries
     import splicer.pipeline  # noqa: F401
 
-    signal.signal(signal.SIGALRM, _on_alarm)
     now = _address_space()
     if now:
         limit = now + MEMORY_HEADROOM

@@ -190,6 +190,13 @@ def test_joint_mapping_of_wrong_shape():
         parse_config("joints: {hands: {right: {wrist: W, fingers: {index: A}}}}\n", "a.yaml")
 
 
+def test_billion_laughs_in_block_style():
+    text = "side:\n  - &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n" + "".join(
+        f"  - &a{k} [" + ", ".join([f"*a{k - 1}"] * 9) + "]\n" for k in range(1, 9))
+    with pytest.raises(ConstraintError, match=r"l.yaml, line \d+: more than 100,000 YAML values"):
+        parse_config(text, "l.yaml")
+
+
 def test_recursive_alias_is_refused():
     with pytest.raises(ConstraintError, match="nested more than 32 deep|more than 100,000"):
         parse_config("side: &a [*a]\n", "r.yaml")
@@ -448,3 +455,12 @@ def test_usage_error_is_one_line(tmp_path, takes):
     assert status == 2
     line = one_error_line(err)
     assert line.startswith("splice: error: argument --side: invalid choice") and line.endswith("(see splice --help)")
+
+
+def test_absurdly_long_band_width_is_refused_at_once(tmp_path, takes):
+    """A 100,000-digit --band would take the band parser's regular expression hours."""
+    body, hands = takes
+    t0 = time.monotonic()
+    status, _, err = run_cli([body, hands, "-o", tmp_path / "o.bvh", "--band", "1" * 100_000 + "x"])
+    assert status == 2 and "band width '11111111111111111111'… is 100,001 characters long" in one_error_line(err)
+    assert time.monotonic() - t0 < 30

@@ -309,7 +309,7 @@ def test_sigkill_leftovers_are_removed_by_the_next_run(tmp_path):
     p = _spawn([body, hands, "-o", tmp_path / "out.bvh", "--report", tmp_path / "r.json", "-q"])
     time.sleep(1.0)
     p.kill()
-    p.wait()
+    p.communicate()
     status, _, err = run_cli([body, hands, "-o", tmp_path / "out.bvh", "--report", tmp_path / "r.json", "-q"])
     assert status == 0, err
     assert temporaries(tmp_path) == [alive.name], (p.returncode, sorted(x.name for x in tmp_path.iterdir()))

@@ -230,6 +230,70 @@ def test_command_line_options(opts, report):
 
 
 # ---------------------------------------------------------------------------------------
+# the classifier itself (each failure class is recognised)
+# ---------------------------------------------------------------------------------------
+def _sample_case():
+    body, hands = small_texts()
+    argv = ["{body}", "{hands}", "-o", "{out}", "-q", "--side", "right", "--passes", "pass1"]
+    return fuzzkit.Case({"body": body.encode(), "hands": hands.encode()}, argv, 40, ["sample"])
+
+
+def _broken_splice(kind):
+    def splice(*args, **kwargs):
+        import sys
+        import time
+
+        from splicer.errors import SplicerError
+
+        if kind == "traceback":
+            raise RuntimeError("boom")
+        if kind == "memory":
+            raise MemoryError
+        if kind == "hang":
+            time.sleep(5)
+        if kind == "bad-message":
+            print("extra line", file=sys.stderr)
+            raise SplicerError("bad")
+        raise AssertionError(kind)
+
+    return splice
+
+
+@pytest.mark.parametrize("kind", ["traceback", "memory", "hang", "bad-message"])
+def test_classifier_recognises_failures(monkeypatch, tmp_path, kind):
+    import splicer.splice
+
+    monkeypatch.setattr(splicer.splice, "splice", _broken_splice(kind))
+    monkeypatch.setattr(fuzzkit, "TIME_LIMIT_S", 1)
+    cls, detail = fuzzkit.run_case(_sample_case(), str(tmp_path))
+    assert cls == kind, detail
+    assert fuzzkit.failures([_sample_case()], [(cls, detail)]) != []
+
+
+def test_classifier_recognises_left_output(monkeypatch, tmp_path):
+    from splicer import cli
+
+    def fail_after_writing(result, out, elapsed):  # an output exists, then exit 1
+        from splicer.errors import SplicerError
+
+        raise SplicerError("late failure")
+
+    monkeypatch.setattr(cli, "_summary", fail_after_writing)
+    case = _sample_case()
+    case.argv.remove("-q")
+    cls, detail = fuzzkit.run_case(case, str(tmp_path))
+    assert cls == "left-output", detail
+
+
+def test_classifier_accepts_success_and_refusal(tmp_path):
+    assert fuzzkit.run_case(_sample_case(), str(tmp_path)) == ("ok", "")
+    case = _sample_case()
+    case.files["body"] = b"HIERARCHY\n"
+    cls, detail = fuzzkit.run_case(case, str(tmp_path))
+    assert cls == "refused" and "body.bvh" in detail, detail
+
+
+# ---------------------------------------------------------------------------------------
 # the seeded mutational campaign
 # ---------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")

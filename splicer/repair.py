@@ -27,11 +27,11 @@ missing-data method, widened against capture noise), for at most :data:`EXTRAPOL
 then held.  Only the broken frames' channels change; every repair is returned as a
 :class:`Repair` so the caller reports it (never silently).
 
-The speed limit, :data:`MAX_FINGER_SPEED_DEG_S` = 3000 deg/s: fast voluntary finger and
-wrist motion peaks near 1000-2000 deg/s, the fastest step in the real 120 fps optical hand
-captures here (ManipNet) is 2024 deg/s; the finger snap reaches 7800 deg/s (Acharya et al.,
-J. R. Soc. Interface 2021) but as a one-way flick, not there and back within a few frames,
-which is what a spike needs.  At 120 fps the limit is 25 degrees per frame, at 37 fps 81.
+The speed limit, :data:`MAX_FINGER_SPEED_DEG_S` = 3000 deg/s, sits above the fastest step
+in the real 120 fps optical hand captures of ``../shared/motions`` (ManipNet: 2024 deg/s,
+wrist included) with a margin; the finger snap reaches 7800 deg/s (Acharya et al., J. R. Soc.
+Interface 2021) but as a one-way flick, while a spike must go there and come back within
+:data:`SPIKE_MAX_FRAMES` frames.  At 120 fps the limit is 25 degrees per frame, at 37 fps 81.
 """
 
 from __future__ import annotations

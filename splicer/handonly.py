@@ -7,8 +7,8 @@ standing at a sensor): its hand positions include the sway of the torso around t
 which shoulder-relative markers would remove; and its forearm marker lies on a virtual
 forearm turned with the hand (wrist-rooted) or the forearm joint (Leap-like).
 :func:`hand_only_view` therefore makes the *body's* markers the same way: measured from the
-body's root (hips) position instead of its shoulder, the forearm marker on the same virtual
-forearm.  Measured on the evaluation protocol (ALGORITHM.md 8, zeggs take, held-out seeds
+body's root (hips) position instead of its shoulder and, against a wrist-rooted file, with
+the forearm marker on the same virtual forearm.  Measured on the evaluation protocol (ALGORITHM.md 8, zeggs take, held-out seeds
 100..104, full method): forearm-rooted hands 1.42 -> 1.12 frames, wrist-rooted 1.54 -> 1.05,
 against 1.03 for the full skeleton (see ``notes/c-handonly.md``).
 

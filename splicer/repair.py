@@ -27,11 +27,11 @@ missing-data method, widened against capture noise), for at most :data:`EXTRAPOL
 then held.  Only the broken frames' channels change; every repair is returned as a
 :class:`Repair` so the caller reports it (never silently).
 
-The speed limit, :data:`MAX_FINGER_SPEED_DEG_S` = 3000 deg/s: fast voluntary finger and
-wrist motion peaks near 1000-2000 deg/s, the fastest step in the real 120 fps optical hand
-captures here (ManipNet) is 2024 deg/s; the finger snap reaches 7800 deg/s (Acharya et al.,
-J. R. Soc. Interface 2021) but as a one-way flick, not there and back within a few frames,
-which is what a spike needs.  At 120 fps the limit is 25 degrees per frame, at 37 fps 81.
+The speed limit, :data:`MAX_FINGER_SPEED_DEG_S` = 3000 deg/s, sits above the fastest step
+in the real 120 fps optical hand captures of ``../shared/motions`` (ManipNet: 2024 deg/s,
+wrist included) with a margin; the finger snap reaches 7800 deg/s (Acharya et al., J. R. Soc.
+Interface 2021) but as a one-way flick, while a spike must go there and come back within
+:data:`SPIKE_MAX_FRAMES` frames.  At 120 fps the limit is 25 degrees per frame, at 37 fps 81.
 """
 
 from __future__ import annotations
@@ -136,33 +136,38 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
     if zero.any() and not zero.all():
         out[-1] = {"zero_row": zero}
     # NaN / inf
+    span = {j: slice(int(sk.channel_offsets[j]), int(sk.channel_offsets[j + 1])) for j in joints}  # contiguous
+    all_finite = bool(finite.all())
     for j in joints:
-        cols = _joint_columns(motion, j)
-        if cols:
-            bad = ~np.all(finite[:, cols], axis=1)
+        if not all_finite and sk.channels[j]:
+            bad = ~np.all(finite[:, span[j]], axis=1)
             if bad.any():
                 out.setdefault(j, {})["nan"] = bad
-    unusable = zero[:, None] | ~finite  # (T, C)
-    clean = np.where(unusable, 0.0, ch)
+    any_unusable = bool(zero.any()) or not all_finite
+    unusable = zero[:, None] | ~finite if any_unusable else np.zeros((T, 1), dtype=bool)  # (T, C) or (T, 1)
+    clean = np.where(unusable, 0.0, ch) if any_unusable else ch
     quats: dict[int, np.ndarray | None] = {}
 
     def joint_quats(j: int) -> np.ndarray | None:
         if j not in quats:
-            quats[j] = _quats(motion, clean, j)
+            if any_unusable or len(sk.rotation_columns(j)) != 3:
+                quats[j] = _quats(motion, clean, j)
+            else:  # the motion's own (cached) rotations, which the splice reuses afterwards
+                quats[j] = motion.joint_rotations([j])[:, 0]
         return quats[j]
 
     # frozen: exact repeats, the rest of the hand moving, ending in a jump or at the end
     changes = np.zeros((T - 1, len(joints)), dtype=bool)
     for k, j in enumerate(joints):
-        cols = _joint_columns(motion, j)
-        if cols:
-            changes[:, k] = np.any(ch[1:, cols] != ch[:-1, cols], axis=1)
+        if sk.channels[j]:
+            changes[:, k] = np.any(ch[1:, span[j]] != ch[:-1, span[j]], axis=1)
+    n_changing = changes.sum(axis=1)
     min_len = max(FROZEN_MIN_FRAMES, int(np.ceil(FROZEN_MIN_S * motion.fps - 1e-9)))
     for k, j in enumerate(joints):
         cols = sk.rotation_columns(j)
         if not cols:
             continue
-        ok_rows = ~np.any(unusable[:, _joint_columns(motion, j)], axis=1)
+        ok_rows = ~np.any(unusable[:, span[j]], axis=1) if any_unusable else np.ones(T, dtype=bool)
         same = ~changes[:, k] & ok_rows[1:] & ok_rows[:-1]  # same[t]: frame t+1 repeats frame t
         if same.all() or not same.any():
             continue
@@ -173,7 +178,7 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         if moving.size < FROZEN_MIN_MOVING * (T - 1):  # a joint that (nearly) never moves is not frozen
             continue
         med = float(np.median(moving))
-        others = np.delete(changes, k, axis=1).any(axis=1) if len(joints) > 1 else np.zeros(T - 1, bool)
+        others = (n_changing - changes[:, k]) > 0  # another checked joint changes at that step
         mask = np.zeros(T, dtype=bool)
         for a, b in _runs(same):  # frames a .. b + 1 are identical
             n_identical = b - a + 2
@@ -204,7 +209,7 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         q = joint_quats(j)
         if q is None:
             continue
-        qg = quat_hemisphere(q[good], axis=0)
+        qg = q if good.size == T else quat_hemisphere(q[good], axis=0)
         step = quat_angle(qg[1:], qg[:-1]) / np.maximum(np.diff(good), 1)  # degrees per frame
         spike = np.zeros(good.size, dtype=bool)
         next_free = 1

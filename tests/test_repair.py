@@ -261,3 +261,23 @@ def test_quaternion_helper_matches_euler():
     a = quat_from_euler(np.array([[10.0, 20.0, 30.0]]), "ZXY")
     b = quat_from_euler(np.array([[70.0, 20.0, 30.0]]), "ZXY")
     assert abs(quat_angle(a, b)[0] - 60.0) < 1e-9
+
+
+def test_cli_reports_repairs_and_no_repair_turns_them_off(hands, tmp_path, capsys):
+    import json
+
+    from splicer.bvh import write_bvh
+    from splicer.cli import main
+
+    ch = np.array(hands.channels)
+    ch[0] = 0.0
+    src = tmp_path / "hands_zero.bvh"
+    write_bvh(hands.with_channels(ch), src)
+    body = SAMPLE / "sample_body.bvh"
+    assert main([str(body), str(src), "-o", str(tmp_path / "a.bvh"), "--report", str(tmp_path / "a.json"), "-q"]) == 0
+    assert json.loads((tmp_path / "a.json").read_text())["hands_repairs"] == [
+        {"joint": "*", "frames": [0, 0], "kind": "zero_row", "method": "extrapolated"}]
+    assert main([str(body), str(src), "-o", str(tmp_path / "b.bvh"), "--report", str(tmp_path / "b.json"), "-q",
+                 "--no-repair"]) == 0
+    rep = json.loads((tmp_path / "b.json").read_text())
+    assert rep["hands_repairs"] == [] and rep["options"]["repair"] == "off"

@@ -164,6 +164,12 @@ def test_pass1_recovers_a_known_warp_and_honours_a_pin():
     guided = pass1(body, hands, width=20.0, coarse_fps=10.0, coarse_width=40.0)
     np.testing.assert_array_equal(guided.path, pr.path)
     assert guided.band.max_row_width != pr.band.max_row_width  # not the diagonal band
+    # with the pin: the coarse pass gets it at (round(45 / 3), round(60 / 3)) = (15, 20) with
+    # tolerance ceil(0 / 3) + 1 = 1, the full-rate pass exactly
+    both = pass1(body, hands, width=20.0, constraints=[Constraint(45, 60, 0)], coarse_fps=10.0, coarse_width=40.0)
+    assert both.path[both.path[:, 0] == 45, 1].tolist() == [60]
+    assert both.band.constraints == (Constraint(45, 60, 0),)
+    np.testing.assert_array_equal(both.path, pinned.path)
 
 
 def test_pass2_of_identical_takes_and_its_weights():

@@ -239,3 +239,20 @@ def test_graft_without_a_body_elbow_or_a_hands_forearm_length_keeps_the_axes():
     flat = Skeleton(hk.names, hk.parents, np.vstack([[0, 0, 0], [0, 0, 0], hk.offsets[2:]]), hk.channels, None)
     out, _ = graft_fingers(body, ArmRoles("left", 3, 2, 1, {}), flat, harm, 2.0)
     np.testing.assert_allclose(out.skeleton.offsets[5], 2 * np.array(_to_hands(SEG)), atol=1e-12)
+
+
+def test_hand_frame_without_a_middle_finger_or_pointing_down():
+    # no middle finger: the long axis points at the mean of the bases, here thumb (2, 0, 3),
+    # index (9, 0, 2) and pinky (9, 0, -2): (20/3, 0, 1); radial (0, 0, 4) minus its part along
+    # that axis; normal = long x radial = -Y
+    sk, arm = _body(fingers=("thumb", "index", "pinky"))
+    f = hand_frame(sk, arm)
+    u = np.array([20 / 3, 0.0, 1.0]) / np.linalg.norm([20 / 3, 0.0, 1.0])
+    np.testing.assert_allclose(f[:, 0], u, atol=1e-12)
+    np.testing.assert_allclose(f[:, 1], [-u[2], 0, u[0]], atol=1e-12)
+    np.testing.assert_allclose(f[:, 2], [0, -1, 0], atol=1e-12)
+    # a hand hanging down (-Y) with one finger: u = -Y is vertical, so v = u x X = +Z, n = u x v = -X
+    names = ("Hand", "Mid1")
+    sk = Skeleton(names, np.array([-1, 0]), np.array([(0, 0, 0), (0, -8.0, 0)]), (ROOT, ROT), None)
+    np.testing.assert_allclose(hand_frame(sk, ArmRoles("left", 0, None, None, {"middle": (1,)})),
+                               [[0, 0, -1], [-1, 0, 0], [0, 1, 0]], atol=1e-12)

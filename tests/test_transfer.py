@@ -311,3 +311,28 @@ def test_hand_frame_narrow_hand_and_first_segments():
 def test_hand_frame_with_one_finger_picks_a_perpendicular(middle, frame):
     sk, arm = _flat_hand({"middle": middle})
     np.testing.assert_allclose(hand_frame(sk, arm), frame, atol=1e-12)
+
+
+@pytest.mark.parametrize("unit", [1.0, 0.01])  # centimetres, metres
+def test_segments_merge_joints_within_a_millionth_of_the_skeleton_size(unit):
+    from splicer.kinematics import rest_positions
+    from splicer.transfer import _segments
+
+    # root at (100, 0, 0), a finger straight down -Z: A 40 below, B eps below A, C 5 below B.
+    # The skeleton's size is its largest extent along one axis: 45 (z), not the 145 between
+    # coordinates of different axes; joints closer than 1e-6 x 45 = 4.5e-5 to their parent merge
+    def finger(eps):
+        offs = unit * np.array([(100.0, 0, 0), (0, 0, -40.0), (0, 0, -eps), (0, 0, -5.0)])
+        sk = Skeleton(("root", "A", "B", "C"), np.array([-1, 0, 1, 2]), offs, (ROOT, ROT, ROT, ROT), None)
+        return _segments(sk, (1, 2, 3), rest_positions(sk))
+
+    assert finger(3e-5) == [(1, 2), (3,)]
+    assert finger(6e-5) == [(1,), (2,), (3,)]
+
+
+def test_graft_keeps_the_source_and_the_side():
+    body_sk, _ = _body(fingers=())
+    hk, harm = _hands(fingers=("index",))
+    body = Motion(body_sk, np.zeros((1, body_sk.n_channels)), 1 / 30, source="body.bvh")
+    out, new_arm = graft_fingers(body, ArmRoles("right", 3, 2, 1, {}), hk, harm, 1.0)
+    assert out.source == "body.bvh" and new_arm.side == "right"

@@ -86,6 +86,7 @@ def test_resample_markers_up_and_down():
 
     mk = _ramp_markers([0.0, 10.0, 40.0], fps=30.0)
     assert resample_markers(mk, 30.0) is mk
+    assert resample_markers(mk, 30.0 * (1 + 5e-10)) is mk  # within 1e-9 of the rate: the same rate
     # 30 -> 60 fps: ratio 0.5, floor(2 / 0.5) + 1 = 5 frames at 0, 0.5, 1, 1.5, 2 (no smoothing up)
     up = resample_markers(mk, 60.0)
     np.testing.assert_allclose(up.points[:, 3, 1], [0, 5, 10, 25, 40])
@@ -95,15 +96,20 @@ def test_resample_markers_up_and_down():
     # does not reach the ends: frames 2.4 x 3 = 7.2 .. 2.4 x 5 = 12.0
     ramp = _ramp_markers(np.arange(21.0), fps=120.0)
     down = resample_markers(ramp, 50.0)
-    assert down.n_frames == 9 and down.fps == 50.0
+    assert down.n_frames == 9 and down.fps == 50.0 and down.side == "left" and down.up == 1
     np.testing.assert_allclose(down.points[3:6, 0, 0], [7.2, 9.6, 12.0], atol=1e-12)
     np.testing.assert_allclose(down.heading[3:6], [0.72, 0.96, 1.2], atol=1e-12)
-    # at the first frame the 'nearest' padding pulls the smoothed ramp above 0
-    assert 0.2 < down.points[0, 0, 0] < 1.0
+    # at the first frame the 'nearest' padding (frames before 0 hold 0) lifts the ramp to
+    # sum_k k w_k = 0.44997 for k = 1..5, w_k = exp(-k^2 / 2.88) / sum_{|k|<=5} exp(-k^2 / 2.88)
+    k = np.arange(-5, 6)
+    w = np.exp(-k ** 2 / (2 * 1.2 ** 2))
+    assert down.points[0, 0, 0] == pytest.approx(np.sum(np.maximum(k, 0) * w) / w.sum(), abs=1e-12)
     # a jitter at the source's Nyquist rate (0, 1, 0, 1 ...) is smoothed to its mean before
     # sampling; plain decimation by 4 would keep only the zeros
     jitter = _ramp_markers(np.tile([0.0, 1.0], 50), fps=120.0)
     np.testing.assert_allclose(resample_markers(jitter, 30.0).points[2:-2, 0, 0], 0.5, atol=0.01)
+    # 60 -> 40 fps (ratio 1.5, sigma 0.75) is smoothed too: the jitter shrinks to a few percent
+    assert np.ptp(resample_markers(_ramp_markers(np.tile([0.0, 1.0], 30), fps=60.0), 40.0).points[3:-3, 0, 0]) < 0.2
 
 
 # -- the two passes on small known warps (unit tests: fractions of a second) -------------------
@@ -164,6 +170,27 @@ def test_pass1_recovers_a_known_warp_and_honours_a_pin():
     guided = pass1(body, hands, width=20.0, coarse_fps=10.0, coarse_width=40.0)
     np.testing.assert_array_equal(guided.path, pr.path)
     assert guided.band.max_row_width != pr.band.max_row_width  # not the diagonal band
+    # with the pin: the coarse pass gets it at (round(45 / 3), round(60 / 3)) = (15, 20) with
+    # tolerance ceil(0 / 3) + 1 = 1, the full-rate pass exactly
+    both = pass1(body, hands, width=20.0, constraints=[Constraint(45, 60, 0)], coarse_fps=10.0, coarse_width=40.0)
+    assert both.path[both.path[:, 0] == 45, 1].tolist() == [60]
+    assert both.band.constraints == (Constraint(45, 60, 0),)
+    np.testing.assert_array_equal(both.path, pinned.path)
+
+
+def test_pass1_features_follow_its_settings_and_coarse_only_below_the_rate():
+    from splicer.align import pass1
+    from splicer.metrics import d1_cost, phase_features
+
+    body, hands, _ = _warped()
+    pr = pass1(body, hands, width=20.0, smooth_s=0.2, dead_zone=0.3, theta="heading")
+    want = d1_cost(phase_features(body, smooth_s=0.2, dead_zone=0.3), phase_features(hands, smooth_s=0.2, dead_zone=0.3),
+                   theta="heading")(pr.band, 0, 90)
+    np.testing.assert_array_equal(pr.local_cost(pr.band, 0, 90), want)
+    # a coarse rate equal to the body's is no coarse pass: the paper's diagonal band
+    same = pass1(body, hands, width=20.0, coarse_fps=body.fps, coarse_width=40.0)
+    np.testing.assert_array_equal(same.band.lo, make_band(90, 110, 20.0).lo)
+    np.testing.assert_array_equal(same.band.hi, make_band(90, 110, 20.0).hi)
 
 
 def test_pass2_of_identical_takes_and_its_weights():

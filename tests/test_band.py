@@ -125,3 +125,32 @@ def test_no_cliff_at_one_frame():
 def test_seconds_need_a_real_frame_rate(fps):
     with pytest.raises(ConstraintError, match="fps must be positive and finite"):
         band_frames("2s", n=100, fps=fps)
+
+
+@pytest.mark.parametrize("n,m,lo,hi,message", [
+    (2, 3, [1, 1], [1, 2], "invalid band at row 0: lo[0] must be 0, got 1"),
+    (2, 3, [0, 1], [1, 1], "invalid band at row 1: hi[1] must be m - 1 = 2, got 1"),
+    (3, 3, [0, -1, 0], [0, 1, 2], "invalid band at row 1: lo < 0"),
+    (3, 3, [0, 1, 1], [1, 3, 2], "invalid band at row 1: hi > m - 1"),
+    (3, 4, [0, 2, 2], [1, 1, 3], "invalid band at row 1: lo > hi"),
+    (3, 4, [0, 2, 1], [2, 2, 3], "invalid band at row 2: lo decreases"),
+    (3, 4, [0, 1, 1], [2, 1, 3], "invalid band at row 1: hi decreases"),
+    (3, 6, [0, 3, 5], [1, 4, 5], "invalid band at row 1: lo[i] > hi[i-1] + 1 (rows do not connect)"),
+    (1, 4, [0], [3], None),
+    (2, 2, [0, 1], [0, 1], None),  # the diagonal: row 1 starts right after row 0 ends
+])
+def test_band_invariants_each_with_its_message(n, m, lo, hi, message):
+    if message is None:
+        b = Band(n, m, 1.0, lo, hi)
+        assert b.lo.tolist() == lo and b.hi.tolist() == hi and b.n_cells == sum(h - l + 1 for l, h in zip(lo, hi))
+        return
+    with pytest.raises(BandError) as e:
+        Band(n, m, 1.0, lo, hi)
+    assert str(e.value) == message
+
+
+def test_band_sizes_must_be_positive():
+    with pytest.raises(BandError, match=r"band needs n >= 1 and m >= 1, got n=0, m=3"):
+        Band(0, 3, 1.0, [], [])
+    with pytest.raises(BandError, match=r"lo and hi must have shape \(2,\), got \(2,\) and \(1,\)"):
+        Band(2, 3, 1.0, [0, 1], [2])

@@ -239,3 +239,100 @@ def test_graft_without_a_body_elbow_or_a_hands_forearm_length_keeps_the_axes():
     flat = Skeleton(hk.names, hk.parents, np.vstack([[0, 0, 0], [0, 0, 0], hk.offsets[2:]]), hk.channels, None)
     out, _ = graft_fingers(body, ArmRoles("left", 3, 2, 1, {}), flat, harm, 2.0)
     np.testing.assert_allclose(out.skeleton.offsets[5], 2 * np.array(_to_hands(SEG)), atol=1e-12)
+
+
+def test_hand_frame_without_a_middle_finger_or_pointing_down():
+    # no middle finger: the long axis points at the mean of the bases, here thumb (2, 0, 3),
+    # index (9, 0, 2) and pinky (9, 0, -2): (20/3, 0, 1); radial (0, 0, 4) minus its part along
+    # that axis; normal = long x radial = -Y
+    sk, arm = _body(fingers=("thumb", "index", "pinky"))
+    f = hand_frame(sk, arm)
+    u = np.array([20 / 3, 0.0, 1.0]) / np.linalg.norm([20 / 3, 0.0, 1.0])
+    np.testing.assert_allclose(f[:, 0], u, atol=1e-12)
+    np.testing.assert_allclose(f[:, 1], [-u[2], 0, u[0]], atol=1e-12)
+    np.testing.assert_allclose(f[:, 2], [0, -1, 0], atol=1e-12)
+    # a hand hanging down (-Y) with one finger: u = -Y is vertical, so v = u x X = +Z, n = u x v = -X
+    names = ("Hand", "Mid1")
+    sk = Skeleton(names, np.array([-1, 0]), np.array([(0, 0, 0), (0, -8.0, 0)]), (ROOT, ROT), None)
+    np.testing.assert_allclose(hand_frame(sk, ArmRoles("left", 0, None, None, {"middle": (1,)})),
+                               [[0, 0, -1], [-1, 0, 0], [0, 1, 0]], atol=1e-12)
+
+
+def _flat_hand(bases, second=None):
+    """A wrist at the origin with finger bases at ``bases`` (and a second joint at ``second``
+    offsets from the base, where given); the hand's rotation channels only."""
+    names, parents, offsets = ["Wrist"], [-1], [(0.0, 0.0, 0.0)]
+    chains = {}
+    for f, p in bases.items():
+        chain = [len(names)]
+        names.append(f"{f}1")
+        parents.append(0)
+        offsets.append(p)
+        if second and f in second:
+            chain.append(len(names))
+            names.append(f"{f}2")
+            parents.append(chain[0])
+            offsets.append(second[f])
+        chains[f] = tuple(chain)
+    sk = Skeleton(tuple(names), np.array(parents), np.array(offsets, float), (ROOT,) + (ROT,) * (len(names) - 1), None)
+    return sk, ArmRoles("left", 0, None, None, chains)
+
+
+PALM_Z = {"thumb": (2.0, 3.0, 0.0), "index": (9.0, 2.0, 0.0), "middle": (10.0, 0.0, 0.0),
+          "ring": (9.5, -1.0, 0.0), "pinky": (9.0, -2.0, 0.0)}  # fingers along X, spread along Y
+
+
+@pytest.mark.parametrize("drop", [(), ("index",), ("pinky",), ("index", "pinky")])
+def test_hand_frame_radial_axis_from_index_or_thumb_and_pinky_or_ring(drop):
+    # long axis X; radial - ulnar: index - pinky = (0, 4, 0), thumb - pinky = (-7, 5, 0),
+    # index - ring = (-0.5, 3, 0), thumb - ring = (-7.5, 4, 0): once the X part is removed, +Y
+    # every time (the fallback for a missing axis would give X x Y = +Z); normal X x Y = +Z
+    sk, arm = _flat_hand({f: p for f, p in PALM_Z.items() if f not in drop})
+    np.testing.assert_allclose(hand_frame(sk, arm), np.eye(3), atol=1e-12)
+
+
+def test_hand_frame_narrow_hand_and_first_segments():
+    # index and pinky bases 0.5 apart: still an across-the-palm axis (|u x v| = 0.5 > 1e-9)
+    sk, arm = _flat_hand({"index": (9.0, 0.25, 0.0), "middle": (10.0, 0.0, 0.0), "pinky": (9.0, -0.25, 0.0)})
+    np.testing.assert_allclose(hand_frame(sk, arm), np.eye(3), atol=1e-12)
+    # the bases are the chains' first joints: second joints bent out of the palm change nothing
+    sk, arm = _flat_hand(PALM_Z, second={f: (2.0, 0.0, 2.0 + k) for k, f in enumerate(PALM_Z)})
+    np.testing.assert_allclose(hand_frame(sk, arm), np.eye(3), atol=1e-12)
+
+
+@pytest.mark.parametrize("middle,frame", [
+    # u = +Z (|u_y| < 0.9 |u|): v = Z x Y = -X, n = Z x -X = -Y
+    ((0.0, 0.0, 10.0), [[0, -1, 0], [0, 0, -1], [1, 0, 0]]),
+    # u = (0.8, 0.6, 0): v = (8, 6, 0) x Y = (0, 0, 8) -> +Z, n = u x Z = (0.6, -0.8, 0)
+    ((8.0, 6.0, 0.0), [[0.8, 0, 0.6], [0.6, 0, -0.8], [0, 1, 0]]),
+    # u = (0, -8, 1) / sqrt 65 (nearly vertical): v = u x X = (0, 1, 8) / sqrt 65, n = u x v = -X
+    ((0.0, -8.0, 1.0), [[0, 0, -1], [-8 / 65 ** 0.5, 1 / 65 ** 0.5, 0], [1 / 65 ** 0.5, 8 / 65 ** 0.5, 0]]),
+])
+def test_hand_frame_with_one_finger_picks_a_perpendicular(middle, frame):
+    sk, arm = _flat_hand({"middle": middle})
+    np.testing.assert_allclose(hand_frame(sk, arm), frame, atol=1e-12)
+
+
+@pytest.mark.parametrize("unit", [1.0, 0.01])  # centimetres, metres
+def test_segments_merge_joints_within_a_millionth_of_the_skeleton_size(unit):
+    from splicer.kinematics import rest_positions
+    from splicer.transfer import _segments
+
+    # root at (100, 0, 0), a finger straight down -Z: A 40 below, B eps below A, C 5 below B.
+    # The skeleton's size is its largest extent along one axis: 45 (z), not the 145 between
+    # coordinates of different axes; joints closer than 1e-6 x 45 = 4.5e-5 to their parent merge
+    def finger(eps):
+        offs = unit * np.array([(100.0, 0, 0), (0, 0, -40.0), (0, 0, -eps), (0, 0, -5.0)])
+        sk = Skeleton(("root", "A", "B", "C"), np.array([-1, 0, 1, 2]), offs, (ROOT, ROT, ROT, ROT), None)
+        return _segments(sk, (1, 2, 3), rest_positions(sk))
+
+    assert finger(3e-5) == [(1, 2), (3,)]
+    assert finger(6e-5) == [(1,), (2,), (3,)]
+
+
+def test_graft_keeps_the_source_and_the_side():
+    body_sk, _ = _body(fingers=())
+    hk, harm = _hands(fingers=("index",))
+    body = Motion(body_sk, np.zeros((1, body_sk.n_channels)), 1 / 30, source="body.bvh")
+    out, new_arm = graft_fingers(body, ArmRoles("right", 3, 2, 1, {}), hk, harm, 1.0)
+    assert out.source == "body.bvh" and new_arm.side == "right"

@@ -287,7 +287,8 @@ def _row(job: PairJob, status: str, *, rep: dict | None = None, seconds: float |
     sides = rep.get("sides") or {}
     costs = [s["pass1"]["cost"] for s in sides.values() if isinstance(s, dict) and s.get("pass1")]
     return {"name": job.name, "status": status, "body": job.body, "hands": job.hands, "output": job.output,
-            "body_frames": (rep.get("body") or {}).get("frames"), "hands_frames": (rep.get("hands") or {}).get("frames"),
+            "body_frames": (rep.get("body") or {}).get("frames"),
+            "hands_frames": (rep.get("hands") or {}).get("frames"),
             "sides": ",".join(sides), "pass1_cost": round(sum(costs), 3) if costs else None,
             "confidence": _confidence(rep), "seconds": round(seconds, 2) if seconds is not None else None,
             "warnings": list(rep.get("warnings") or []), "error": error, "report": report, "plot": plot}
@@ -314,6 +315,7 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
 
     out = Path(out_dir)
     t0 = time.perf_counter()
+    c0 = time.thread_time()
     digest = digest or job_hash(job)
     rp = _report_path(out, job)
     before = None
@@ -339,11 +341,15 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
         rep = res.report.to_dict()
         seconds = time.perf_counter() - t0
         rep["batch"] = {"name": job.name, "hash": digest, "status": "done", "output": job.output,
-                        "seconds": round(seconds, 3), "plot": pp}
+                        "seconds": round(seconds, 3), "cpu_seconds": round(time.thread_time() - c0, 3),
+                        "pid": os.getpid(), "plot": pp}
         _write_atomic(rp, json.dumps(rep, indent=1))
         return _row(job, "done", rep=rep, seconds=seconds, report=str(rp), plot=pp)
     except SplicerError as e:
         return _row(job, "failed", seconds=time.perf_counter() - t0, error=str(e))
+    except OSError as e:  # the output folder or the report cannot be written
+        return _row(job, "failed", seconds=time.perf_counter() - t0,
+                    error=f"{e.filename or out}: cannot write ({e.strerror or e})")
     except Exception as e:  # noqa: BLE001 - a bug on one pair must not stop the batch; reported in full
         return _row(job, "failed", seconds=time.perf_counter() - t0, error=f"internal error: {type(e).__name__}: {e}")
     finally:
@@ -575,7 +581,8 @@ def write_summary(rows: list[dict], out_dir, *, html_page: bool = False) -> None
         if r.get("plot"):
             rel = os.path.relpath(r["plot"], out)
             parts.append(f"<h2 id='{e(r['name'])}'>{e(r['name'])}</h2><p>{e(Path(r['body']).name)} + "
-                         f"{e(Path(r['hands']).name)} &rarr; {e(r['output'])}</p><img src='{e(rel)}' alt='alignment plot'>")
+                         f"{e(Path(r['hands']).name)} &rarr; {e(r['output'])}</p>"
+                         f"<img src='{e(rel)}' alt='alignment plot'>")
     parts.append("</body></html>")
     _write_atomic(out / "summary.html", "\n".join(parts))
 
@@ -587,7 +594,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="splice-batch",
         description="Splice many body/hands pairs on Dask: from a manifest, or by pairing two folders of takes "
                     "automatically.  Finished pairs are not run again.",
-        epilog="examples:\n  splice-batch day1.yaml -o day1_out\n  splice-batch --body-dir body/ --hands-dir hands/ -o out\n"
+        epilog="examples:\n  splice-batch day1.yaml -o day1_out\n"
+               "  splice-batch --body-dir body/ --hands-dir hands/ -o out\n"
                "  splice-batch day1.csv -o out --scheduler tcp://10.0.0.5:8786 --plot\n\n"
                "manifest (YAML): pairs: [{body: b.bvh, hands: h.bvh, output: o.bvh, constraints: c.yaml, "
                "options: {side: left}}]\nmanifest (CSV): body,hands,output,constraints,name,options (options: "

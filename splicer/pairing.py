@@ -3,8 +3,9 @@
 For each take, once: its skeleton roles and each side's virtual markers brought down to a
 coarse rate (``fps``, 5 frames per second by default).  For each (hands, body) candidate:
 pass 1 of the splice (the phase metric D1, banded DTW around the diagonal, a band of 60 %
-of the body take: a capture re-timed by 0.5x-2x needs the room) on those coarse markers, per side both takes have, and the cost **per path step** (D1 is 0..96 per step,
-so takes of different lengths compare), averaged over the sides.  The true partner
+of the body take: a capture re-timed by 0.5x-2x needs the room) on those coarse markers,
+per side both takes have, and the cost **per path step** (D1 is 0..96 per step, so takes
+of different lengths compare), averaged over the sides.  The true partner
 performs the same gestures in the same order and scores far below any other take.
 
 Decision (:func:`decide_pairs`): a hands take is paired with body take ``b`` when ``b`` is

@@ -115,9 +115,11 @@ def test_changed_entry_or_input_is_run_again(client, takes, tmp_path):
     jobs = read_manifest(write_manifest(tmp_path / "day.yaml", d))[1:2]
     out = tmp_path / "batch"
     run_batch(jobs, out, client)
+    assert [r["status"] for r in run_batch(jobs, out, client)] == ["done earlier"]  # nothing to submit
     changed = read_manifest(write_manifest(tmp_path / "day.yaml", d, options="options: {band1: 25%}\n"))[1:2]
     assert job_hash(changed[0]) != job_hash(jobs[0])
     assert is_finished(changed[0], out) is None and is_finished(jobs[0], out) is not None
+    assert [r["status"] for r in run_batch(changed, out, client)] == ["done"]
     # the hands file re-exported (new size/time): the pair is stale
     h = Path(jobs[0].hands)
     copy = tmp_path / "hands_copy.bvh"
@@ -144,7 +146,8 @@ def test_csv_manifest_and_cli_with_scheduler(client, takes, tmp_path):
 
 @pytest.mark.parametrize("text, match", [
     ("pairs:\n  - {body: a.bvh, hands: b.bvh}\n", r"line 2: 'output' is missing"),
-    ("pairs:\n  - {body: a.bvh, hands: b.bvh, output: o.bvh, options: {bandd: 3}}\n", r"line 2: .*unknown option.*bandd"),
+    ("pairs:\n  - {body: a.bvh, hands: b.bvh, output: o.bvh, options: {bandd: 3}}\n",
+     r"line 2: .*unknown option.*bandd"),
     ("pairs:\n  - {body: a.bvh, hands: b.bvh, output: o.bvh, options: {side: up}}\n", r"line 2: side must be one of"),
     ("pairs:\n  - {body: a.bvh, hands: b.bvh, output: o.bvh}\n  - {body: c.bvh, hands: d.bvh, output: o.bvh}\n",
      r"line 3: name 'o' is used twice \(first at line 2\)"),

@@ -34,3 +34,6 @@ BLEND_WINDOW_FRAMES = 4
 COARSE_FPS = 5.0
 #: Takes longer than this get the coarse guide when ``coarse="auto"``, seconds.
 COARSE_ABOVE_S = 120.0
+#: Open ends: a body frame left without hands material costs this quantile of the phase
+#: metric D1 over a sample of all frame pairs (ALGORITHM.md section 9).
+UNCOVERED_QUANTILE = 0.1

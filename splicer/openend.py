@@ -18,7 +18,7 @@ __all__ = ["UNCOVERED_QUANTILE", "OPEN_HORIZONTAL_WEIGHT", "OPEN_COARSE_FPS", "M
            "uncovered_penalty", "coarse_rate", "offset_band", "d1_sample"]
 
 #: Default quantile of the local costs used as the per-row penalty of uncovered body frames.
-UNCOVERED_QUANTILE = 0.1
+from .defaults import UNCOVERED_QUANTILE  # noqa: E402  (one place of defaults)
 
 #: Default weight of a cell entered by a (i, j-1) step in an open-ended pass 1 (see
 #: :func:`splicer.dtw.dtw`): with the paper's 1, skipping hands material is cheaper than

@@ -371,7 +371,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
             log.progress(f"{s}: pass 1", 0.0)
             guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
             p1 = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
-                       theta=opts.theta, ends=ends, offset_s=offset_s,
+                       theta=opts.theta, ends=ends, offset_s=offset_s, uncovered_quantile=opts.uncovered_quantile,
                        coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
                        coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
                        progress=lambda f: log.progress(f"{s}: pass 1", f))
@@ -549,7 +549,11 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
     else:
         ratio, last, n = inputs.spaces.ratio, hm.n_frames - 1, bm.n_frames
         path = alignment.path
-        q = median_rotations(hq, np.clip(path[:, 1] * ratio, 0, last), path[:, 0].astype(np.int64), n)
+        a, b = alignment.covered if alignment.covered is not None else (0, n - 1)
+        keep = (path[:, 0] >= a) & (path[:, 0] <= b) & np.isfinite(path[:, 1])
+        q = sample_rotations(hq, tm)  # uncovered rows: the time map held at its ends (weight 0 below)
+        q[a:b + 1] = median_rotations(hq, np.clip(path[keep, 1] * ratio, 0, last),
+                                      path[keep, 0].astype(np.int64) - a, b - a + 1)
         q = blend_jumps(q, tm, jump=3.0 * max(ratio, 1.0), window=opts.blend_window)
         fixed = np.array(sorted({p.body for p in pins}), dtype=np.int64)
         if len(fixed):  # pinned frames show exactly the time map's (pinned) hands frame

@@ -103,7 +103,7 @@ def euler_from_quat(q: np.ndarray, order: str) -> np.ndarray:
     locked = np.abs(sb) > 1.0 - 1e-12
     a = np.where(locked, np.arctan2(s * m[..., k, j], m[..., j, j]), np.arctan2(-s * m[..., j, k], m[..., k, k]))
     c = np.where(locked, 0.0, np.arctan2(-s * m[..., i, j], m[..., i, i]))
-    return np.degrees(np.stack([a, b, c], axis=-1))
+    return np.degrees(np.stack([a, b, c], axis=-1)) + 0.0  # + 0.0: no negative zeros
 
 
 def euler_channels_deg(q: np.ndarray, order: str, *, near_deg: np.ndarray | None = None) -> np.ndarray:

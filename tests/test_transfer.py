@@ -13,7 +13,8 @@ import pytest
 
 from splicer.model import Motion, Skeleton
 from splicer.roles import ArmRoles
-from splicer.rotations import quat_angle, quat_from_euler, quat_to_matrix
+from splicer.kinematics import rest_positions
+from splicer.rotations import quat_angle, quat_between, quat_from_euler, quat_to_matrix
 from splicer.transfer import carried_rotations, finger_map, graft_fingers, hand_frame
 
 ROT = ("Zrotation", "Xrotation", "Yrotation")
@@ -236,20 +237,23 @@ def test_graft_without_a_body_elbow_or_a_hands_forearm_length_keeps_the_axes():
     body = Motion(body_sk, np.zeros((1, body_sk.n_channels)), 1 / 30)
     out, _ = graft_fingers(body, ArmRoles("left", 3, None, None, {}), hk, harm, 1.0)
     np.testing.assert_allclose(out.skeleton.offsets[4], _to_hands(BASES["index"]), atol=1e-12)
+    # a hands forearm of zero length (Leap's rForeArm at the wrist) has no direction: the hands'
+    # long hand axis stands in for it and is turned onto the body's forearm direction
     flat = Skeleton(hk.names, hk.parents, np.vstack([[0, 0, 0], [0, 0, 0], hk.offsets[2:]]), hk.channels, None)
     out, _ = graft_fingers(body, ArmRoles("left", 3, 2, 1, {}), flat, harm, 2.0)
-    np.testing.assert_allclose(out.skeleton.offsets[5], 2 * np.array(_to_hands(SEG)), atol=1e-12)
+    rb = rest_positions(body_sk)
+    C = quat_to_matrix(quat_between(hand_frame(flat, harm)[:, 0], rb[3] - rb[2]))
+    np.testing.assert_allclose(out.skeleton.offsets[5], 2 * C @ np.array(_to_hands(SEG)), atol=1e-12)
 
 
 def test_hand_frame_without_a_middle_finger_or_pointing_down():
-    # no middle finger: the long axis points at the mean of the bases, here thumb (2, 0, 3),
-    # index (9, 0, 2) and pinky (9, 0, -2): (20/3, 0, 1); radial (0, 0, 4) minus its part along
-    # that axis; normal = long x radial = -Y
+    # no middle finger: the long axis points at the mean of the knuckles other than the thumb's
+    # (the thumb base sits off the knuckle line), index (9, 0, 2) and pinky (9, 0, -2): (9, 0, 0),
+    # so +X; radial = index - pinky = (0, 0, 4): +Z; normal = long x radial = X x Z = -Y
     sk, arm = _body(fingers=("thumb", "index", "pinky"))
     f = hand_frame(sk, arm)
-    u = np.array([20 / 3, 0.0, 1.0]) / np.linalg.norm([20 / 3, 0.0, 1.0])
-    np.testing.assert_allclose(f[:, 0], u, atol=1e-12)
-    np.testing.assert_allclose(f[:, 1], [-u[2], 0, u[0]], atol=1e-12)
+    np.testing.assert_allclose(f[:, 0], [1, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(f[:, 1], [0, 0, 1], atol=1e-12)
     np.testing.assert_allclose(f[:, 2], [0, -1, 0], atol=1e-12)
     # a hand hanging down (-Y) with one finger: u = -Y is vertical, so v = u x X = +Z, n = u x v = -X
     names = ("Hand", "Mid1")

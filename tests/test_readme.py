@@ -39,14 +39,8 @@ def readme_blocks() -> list[tuple[str, int, str]]:
     return [(m.group(1), text.count("\n", 0, m.start()) + 1, m.group(2)) for m in _BLOCK.finditer(text)]
 
 
-#: The README's ``splicer.splice(...)`` raises RecursionError until splicer/__init__.py's lazy
-#: import is fixed (the lead's part of the same issue); remove this mark then.
-_RECURSION = pytest.mark.xfail(strict=False, raises=RecursionError, reason="lead fixes splicer/__init__ lazy import")
-
-
 def _params(lang: str):
-    return [pytest.param(code, id=f"line{line}", marks=[_RECURSION] if "splicer.splice(" in code else [])
-            for lg, line, code in readme_blocks() if lg == lang]
+    return [pytest.param(code, id=f"line{line}") for lg, line, code in readme_blocks() if lg == lang]
 
 
 def test_the_readme_has_the_blocks_these_tests_expect():

@@ -6,16 +6,21 @@ From real full-body takes with moving fingers, :func:`splicer.separate.separate`
 * alignment error, body frames: the hands frame a method uses for body frame ``i`` is mapped
   back to body time through the inverse of the truth (``np.interp(hf, truth, arange(n))``)
   and ``i`` subtracted; mean and worst ``|error|`` over both sides' frames, and the share of
-  frames within 1 and 3 frames;
+  frames within 1 and 3 frames.  A body frame a method leaves uncovered (NaN hands frame, open
+  ends) while the truth has a hands frame there is scored with the nearest covered value (the
+  time map held at its ends, :func:`splicer.align.hold_ends`), so it counts as the error it
+  causes; ``uncovered`` is the share of such frames, in %;
 * finger error, degrees: geodesic angle between the result's local finger rotations and the
   original take's, mean over the moving finger joints (:func:`~splicer.separate.moving_finger_joints`)
-  and frames;
+  and frames; the output is scored as it is (uncovered frames keep the body's own fingers);
 * time per stage, seconds (markers, alignment, merge, total; both sides).
 
 Methods: the oracle (hands sampled at the true times), no alignment (fingers flat), uniform
 time scaling, a generic DTW (:mod:`splicer.baselines`), and :func:`splicer.splice`
 with pass 1 alone, the literal D2 pass alone, pass 1 + the paper's literal pass 2
-(``pass2_weight=0``), and the full method with the median merge and with the smooth time map.
+(``pass2_weight=0``), and the full method with the median merge and with the smooth time map
+(all with the default open ends), and the full method with fixed ends (``ends="fixed"``, the
+paper's idealised setting: both takes start and end together, as the separation makes them).
 Baselines that do not go through ``splice`` sample the hands' finger rotations at their
 frames by slerp, as the splice's time-map merge does.
 
@@ -34,6 +39,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .align import hold_ends
 from .baselines import flat_rotations, generic_dtw_frames, oracle_frames, uniform_frames
 from .errors import SplicerError
 from .model import Motion
@@ -53,6 +59,7 @@ SPLICE_METHODS = {
     "pass 1 + literal pass 2": {"passes": "both", "pass2_weight": 0.0},
     "full, median merge": {"passes": "both", "merge": "median"},
     "full, smooth time map": {"passes": "both", "merge": "timemap"},
+    "full, fixed ends": {"passes": "both", "merge": "timemap", "ends": "fixed"},
 }
 METHODS = ("oracle", "no alignment", "uniform scaling", "generic DTW") + tuple(SPLICE_METHODS)
 
@@ -62,6 +69,7 @@ METRICS = {
     "align_max": ("align max (frames)", "max"),
     "within_1": ("within 1 frame (%)", "min"),
     "within_3": ("within 3 frames (%)", "min"),
+    "uncovered": ("uncovered (%)", "max"),
     "finger_deg": ("finger error (deg)", "max"),
     "t_markers": ("markers (s)", "max"),
     "t_align": ("alignment (s)", "max"),
@@ -91,15 +99,28 @@ class SeparationParams:
 
 
 def _alignment_scores(hands_frames: dict, truth: np.ndarray) -> dict:
+    """Alignment error (body frames) of each side's ``hands_frames`` against ``truth`` (finite
+    everywhere): frames the method leaves uncovered (NaN) are scored with the nearest covered
+    value (:func:`splicer.align.hold_ends`), or as infinitely wrong when none is covered."""
     n = len(truth)
     idx = np.arange(n, dtype=np.float64)
-    err = np.concatenate([np.abs(np.interp(hf, truth, idx) - idx) for hf in hands_frames.values()])
+    errs, unc = [], []
+    for hf in hands_frames.values():
+        hf = np.asarray(hf, dtype=np.float64)
+        missing = ~np.isfinite(hf)
+        unc.append(missing)
+        if missing.all():
+            errs.append(np.full(n, np.inf))
+            continue
+        errs.append(np.abs(np.interp(hold_ends(hf) if missing.any() else hf, truth, idx) - idx))
+    err = np.concatenate(errs)
     return {"align_mean": float(err.mean()), "align_max": float(err.max()),
-            "within_1": 100.0 * float(np.mean(err <= 1.0)), "within_3": 100.0 * float(np.mean(err <= 3.0))}
+            "within_1": 100.0 * float(np.mean(err <= 1.0)), "within_3": 100.0 * float(np.mean(err <= 3.0)),
+            "uncovered": 100.0 * float(np.concatenate(unc).mean())}
 
 
 def _no_alignment_scores() -> dict:
-    return {"align_mean": np.nan, "align_max": np.nan, "within_1": np.nan, "within_3": np.nan}
+    return {"align_mean": np.nan, "align_max": np.nan, "within_1": np.nan, "within_3": np.nan, "uncovered": np.nan}
 
 
 # --- hands forms (issue 9, c-handonly): the hands capture as a full skeleton, or as the
@@ -285,6 +306,7 @@ COMPACT = {  # README table: label -> (mean column, worst column)
     "alignment error, frames": ("align mean (frames)", "align mean (frames) worst"),
     "within 1 frame, %": ("within 1 frame (%)", "within 1 frame (%) worst"),
     "within 3 frames, %": ("within 3 frames (%)", "within 3 frames (%) worst"),
+    "uncovered, %": ("uncovered (%)", "uncovered (%) worst"),
     "finger error, deg": ("finger error (deg)", "finger error (deg) worst"),
     "time, s": ("total (s)", "total (s) worst"),
 }
@@ -368,7 +390,8 @@ def _header(takes, runs, p: SeparationParams, generic_window) -> str:
             f"Generic DTW: dtaidistance, {'full' if generic_window is None else f'window {generic_window}'}; "
             "oracle, uniform and generic DTW sample the fingers by slerp at their frames (counted as merge; "
             "the generic DTW's marker extraction is counted in its alignment time).\n"
-            "Each metric: mean over runs, worst run beside it. Alignment error in body frames; "
+            "Each metric: mean over runs, worst run beside it. Alignment error in body frames (a body frame a "
+            "method leaves uncovered is scored with its nearest covered hands frame; 'uncovered' is their share); "
             "finger error in degrees (geodesic) over moving finger joints; times in seconds for both sides.\n")
 
 

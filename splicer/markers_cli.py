@@ -9,7 +9,9 @@ markers re-timed onto the body's timeline out::
 The output has the body file's frame count, rate and first frame; frame ``i`` holds every
 hands marker at the time map's hands frame for body frame ``i`` (linear between the two
 nearest hands frames; a sample next to a gap of the hands file stays missing: the output
-never shows filled data).  Exit status: 0 done, 1 bad input, 2 usage.
+never shows filled data).  Body frames the hands session does not cover (open ends: the time
+map is NaN there, the report lists them as ``uncovered``) hold the hands markers as missing.
+Exit status: 0 done, 1 bad input, 2 usage.
 """
 
 from __future__ import annotations
@@ -50,9 +52,11 @@ class MarkerAlignment:
     body, hands : Trajectories
         As read.
     time_maps : dict of str to np.ndarray [shape=(n_body,)]
-        Per side: fractional, 0-based hands row for each body row.
+        Per side: fractional, 0-based hands row for each body row; NaN for body rows the hands
+        session does not cover (open ends).
     retimed : Trajectories
-        The hands markers on the body's timeline (body frame count, rate, first frame).
+        The hands markers on the body's timeline (body frame count, rate, first frame); missing
+        (NaN) at body rows no side covers, and each arm's markers at rows its side leaves uncovered.
     report : Report
     """
 
@@ -70,7 +74,8 @@ def retime(traj, frames: np.ndarray, *, fps: float, first_frame: int, columns=No
     ----------
     traj : Trajectories
     frames : np.ndarray [shape=(n,)]
-        Fractional 0-based rows of ``traj``, within ``[0, T - 1]``.
+        Fractional 0-based rows of ``traj``, within ``[0, T - 1]``; NaN (an uncovered body
+        frame): the markers are missing (NaN) there.
     fps, first_frame
         Of the result.
     columns : sequence of int, optional
@@ -82,7 +87,9 @@ def retime(traj, frames: np.ndarray, *, fps: float, first_frame: int, columns=No
     -------
     np.ndarray [shape=(n, K, 3)]
     """
-    f = np.clip(np.asarray(frames, dtype=np.float64), 0, traj.n_frames - 1)
+    f = np.asarray(frames, dtype=np.float64)
+    covered = np.isfinite(f)
+    f = np.clip(np.where(covered, f, 0.0), 0, traj.n_frames - 1)
     i0 = np.floor(f).astype(np.int64)
     i1 = np.minimum(i0 + 1, traj.n_frames - 1)
     w = (f - i0)[:, None, None]
@@ -92,6 +99,7 @@ def retime(traj, frames: np.ndarray, *, fps: float, first_frame: int, columns=No
     val = (1 - w) * a + w * b
     exact = (w == 0)[..., 0, 0]
     val[exact] = a[exact]  # on a sample: its value, even when the next one is missing
+    val[~covered] = np.nan  # no hands material for these body frames
     out[:, cols] = val
     return out
 
@@ -141,7 +149,7 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     from .frames import FrameSpaces, pins_from_config
     from .marker_roles import arm_from_trajectories
     from .options import resolve_options
-    from .pipeline import Log, SideMarkers, _align_up, align_side, time_map
+    from .pipeline import Log, SideMarkers, SideResult, _align_up, _coverage_report, align_side, time_map
     from .report import Report, SideReport
     from .trajectories import Trajectories, read_trajectories
 
@@ -175,14 +183,18 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
         columns[s] = sorted({c for cols in list(harm.roles.roles.values()) + list(harm.roles.segments.values())
                              for c in cols})
         info = lambda p: None if p is None else {"band_frames": round(float(p.band.width), 3), "cost": float(p.cost)}
-        extra = {"hands_file_frame": [round(float(v) + ht.first_frame, 4) for v in tm], "markers": real}
-        conf = getattr(alignment, "confidence", None)
-        if conf is not None:
-            extra["confidence"] = conf.to_dict() if hasattr(conf, "to_dict") else conf
+        extra = {"hands_file_frame": [round(float(v) + ht.first_frame, 4) if np.isfinite(v) else None for v in tm],
+                 "markers": real}
+        # covered / uncovered ranges, confidence and low-confidence ranges as splice reports them
+        extra.update(_coverage_report(SideResult(s, tm, sm, alignment), bt.n_frames, log))
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in sm.pins)
         side_reports[s] = SideReport(s, tm, info(alignment.pass1), info(alignment.pass2), pins, {}, extra)
         log.tick("align")
-    mean_map = np.mean(np.stack(list(maps.values())), axis=0)
+    stack = np.stack(list(maps.values()))
+    ok = np.isfinite(stack)
+    count = ok.sum(axis=0)
+    # markers of no side follow the mean map of the sides covering each frame (NaN: none does)
+    mean_map = np.where(count > 0, np.where(ok, stack, 0.0).sum(axis=0) / np.maximum(count, 1), np.nan)
     pts = retime(ht, mean_map, fps=bt.fps, first_frame=bt.first_frame)
     if len(maps) > 1:  # each arm's markers follow their own side's map
         for s, tm in maps.items():

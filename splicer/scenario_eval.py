@@ -53,7 +53,7 @@ __all__ = ["SCENARIO_METHODS", "SCENARIO_METRICS", "ranges_mask", "report_flags"
            "evaluate_scenario_pair", "evaluate_scenarios",
            "summarize_scenarios", "scenario_markdown"]
 
-#: splice options of each splice-based method (the current defaults: fixed ends)
+#: splice options of each splice-based method (the current defaults: open ends)
 SPLICE = {
     "splice (smooth time map)": {"merge": "timemap"},
     "splice (median merge)": {"merge": "median"},

@@ -7,9 +7,11 @@ import pytest
 
 c3d = pytest.importorskip("c3d")
 
+from splicer.align import hold_ends  # noqa: E402
 from splicer.bvh import write_bvh  # noqa: E402
 from splicer.marker_synth import skin_markers  # noqa: E402
 from splicer.markers_cli import main  # noqa: E402
+from splicer.scenario_eval import ranges_mask  # noqa: E402
 from splicer.separate import separate  # noqa: E402
 from splicer.synth import make_gesture_take  # noqa: E402
 from splicer.trajectories import write_c3d  # noqa: E402
@@ -39,21 +41,29 @@ def test_splice_markers_retimes_hands_onto_the_body_timeline(session, capsys):
             in capsys.readouterr().out)
     with open(d / "retimed.c3d", "rb") as f, pytest.warns(UserWarning, match="No analog"):  # by the library itself
         r = c3d.Reader(f)
-        frames = np.stack([p[:, :3].copy() for _, p, _ in r.read_frames()])
+        frames = np.stack([p[:, :4].copy() for _, p, _ in r.read_frames()])
+        frames[frames[..., 3] < 0] = np.nan  # residual -1: missing (C3D convention)
+        frames = frames[..., :3]
         assert r.point_rate == 50.0 and frames.shape[0] == body.n_frames == r.last_frame - r.first_frame + 1
         assert [s.strip() for s in r.point_labels] == list(hands.labels)
-    rep = json.loads((d / "r.json").read_text())
+    text = (d / "r.json").read_text()
+    assert "NaN" not in text and "Infinity" not in text  # strict JSON: an uncovered frame is null
+    rep = json.loads(text)
     assert sorted(rep["sides"]) == ["left", "right"]
     for side, s in rep["sides"].items():
-        tm = np.array(s["hands_frame"])
-        assert len(tm) == body.n_frames and np.all(np.diff(tm) >= 0)
+        tm = np.array(s["hands_frame"], dtype=np.float64)  # null (NaN): a body frame the hands do not cover
+        cov = np.isfinite(tm)
+        assert len(tm) == body.n_frames and np.all(np.diff(tm[cov]) >= 0)
+        assert not cov.any() or ranges_mask(s["uncovered"], body.n_frames).tolist() == (~cov).tolist()
         cols = [k for k, lab in enumerate(hands.labels) if lab.startswith(f"Sim:{side[0].upper()}_")]
-        expect = np.stack([[np.interp(tm, np.arange(hands.n_frames), hands.points[:, c, a]) for a in range(3)]
+        expect = np.stack([[np.interp(tm[cov], np.arange(hands.n_frames), hands.points[:, c, a]) for a in range(3)]
                            for c in cols], axis=-1).transpose(1, 2, 0)
-        np.testing.assert_allclose(frames[:, cols], expect, atol=1e-3)  # float32 in the file
-        # the time map finds the true timing: body frame i at 50 Hz is body-take time i/50 s
+        np.testing.assert_allclose(frames[cov][:, cols], expect, atol=1e-3)  # float32 in the file
+        assert np.isnan(frames[~cov][:, cols]).all()  # uncovered: written as missing (residual -1)
+        # the time map finds the true timing: body frame i at 50 Hz is body-take time i/50 s; an
+        # uncovered frame is scored with the nearest covered hands frame (what the hands would show)
         truth_s = np.interp(np.arange(body.n_frames) / 50.0, np.arange(len(sep.truth)) / 30.0, sep.truth / 60.0)
-        assert np.mean(np.abs(tm / 100.0 - truth_s)) < 3.0 / 30.0  # within 3 frames of the 30 fps take
+        assert np.mean(np.abs(hold_ends(tm) / 100.0 - truth_s)) < 3.0 / 30.0  # within 3 frames of the 30 fps take
         assert s["markers"]["body"]["gaps_filled"] and s["markers"]["body"]["marker_set"] == "biomechanics"
 
 

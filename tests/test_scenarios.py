@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -261,8 +263,16 @@ def test_evaluate_scenario_pair(take):
     assert by["oracle"]["align_mean_s"] < 1e-9 and by["oracle"]["finger_deg"] < 1.5
     assert by["uniform scaling"]["align_mean_s"] > 0.1
     assert 0 < by["oracle"]["covered"] < 100
-    for r in recs:  # today's splice reports neither uncovered nor low-confidence ranges
-        assert np.isnan(r["flag_bad"]) and np.isnan(r["unc_found"])
+    for m in ("oracle", "uniform scaling"):  # no report: no uncovered / low-confidence ranges to score
+        assert np.isnan(by[m]["flag_bad"]) and np.isnan(by[m]["unc_found"]) and np.isnan(by[m]["conf_auc"])
+    # the splice (open ends by default) reports uncovered and low-confidence ranges and a per-frame
+    # confidence, so all are scored.  Measured here: unc_found 0.0 %, unc_false 0.0 % (it covers body
+    # frames 0-360 on both sides while the truth covers 82-325: the hands' extra material is matched
+    # to the body frames the hands do not show), flag_bad 16.0 %, flag_good 3.2 %, AUC 0.52
+    sp = by["splice (smooth time map)"]
+    for k in ("unc_found", "unc_false", "flag_bad", "flag_good"):
+        assert 0.0 <= sp[k] <= 100.0
+    assert 0.0 <= sp["conf_auc"] <= 1.0
     runs = pd.DataFrame([{"take": "t", "scenario": "x", "seed": 0, **r} for r in recs])
     t = summarize_scenarios(runs)
     assert list(t.index.get_level_values("method")) == ["oracle", "uniform scaling", "splice (smooth time map)"]
@@ -299,20 +309,27 @@ def test_report_ranges_are_scored(take, monkeypatch):
     s = make_scenario(take, Scenario("t", cover=(0.6, 0.6), cover_start=0.2), rng=np.random.default_rng(3))
     real = se.splice
 
+    missing = []  # covered body frames the splice itself leaves without a hands frame (open ends)
+
     def reporting_splice(body, hands, **kw):
         res = real(body, hands, **kw)
+        sides = {}
         for side, r in res.sides.items():
-            err = alignment_error_s(s, r.hands_frame)
-            res.report["sides"][side]["uncovered"] = _runs_of(~s.covered)
-            res.report["sides"][side]["low_confidence"] = _runs_of(s.covered & (err > 0.1))
-            res.report["sides"][side]["confidence"] = np.where(s.covered & (err <= 0.1), 1.0, 0.0).tolist()
-        return res
+            err = alignment_error_s(s, r.hands_frame)  # NaN: not covered, or no hands frame
+            bad = s.covered & ~(err <= 0.1)  # a covered frame without a hands frame is wrong
+            missing.append(s.covered & ~np.isfinite(r.hands_frame))
+            sr = res.report.sides[side]  # the report is read-only: replace the side with the ranges added
+            sides[side] = replace(sr, extra={**sr.extra, "uncovered": _runs_of(~s.covered),
+                                             "low_confidence": _runs_of(bad),
+                                             "confidence": np.where(bad, 0.0, 1.0).tolist()})
+        return replace(res, report=replace(res.report, sides=sides))
 
     monkeypatch.setattr(se, "splice", reporting_splice)
     rec, = evaluate_scenario_pair(take, s, methods=("splice (smooth time map)",))
     assert rec["unc_found"] == 100.0 and rec["unc_false"] == 0.0
     assert rec["flag_bad"] == 100.0 and rec["flag_good"] == 0.0
-    assert rec["missing"] == 0.0
+    miss = np.concatenate(missing)
+    assert rec["missing"] == pytest.approx(100.0 * miss.sum() / (len(missing) * s.covered.sum()))
     assert rec["conf_auc"] == 1.0
 
 

@@ -68,9 +68,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--band", "--band1", dest="band1", default=None, type=_band_text,
                    help="pass-1 band width: frames (120), share of the body take (30%%) or seconds (20s); default 3s "
                         "around the located overlap with open ends, 30%% with fixed ends")
-    p.add_argument("--ends", choices=("open", "fixed"), default=None,
-                   help="open (default): find where the takes overlap (the hands take may start early, stop late or "
-                        "cover part of the body); fixed: first frames match, last frames match (the paper)")
+    p.add_argument("--ends", choices=("auto", "open", "fixed"), default=None,
+                   help="open: find where the takes overlap (the hands take may start early, stop late or cover part "
+                        "of the body); fixed: first frames match, last frames match (the paper); auto (default): open, "
+                        "but end to end when the takes are found to start and end together or the overlap found is "
+                        "implausibly short (with a warning)")
     p.add_argument("--offset", type=float, default=None, metavar="SECONDS",
                    help="open ends: body frame 0 shows this hands time (a starting guess, e.g. from timecode)")
     p.add_argument("--band2", default=None, type=_band_text, help="pass-2 band width (default: a third of --band)")

@@ -294,8 +294,8 @@ def parse_config(text: str, source: str = "<config>") -> SpliceConfig:
         raise ConstraintError(f"{source}, line {lines['markers']}: 'markers' takes 'body:' and/or 'hands:' mappings "
                               "of 'up:', 'left:' and 'right:' (roles p1, p2, p3, p4, shoulder)")
     ends = _scalar(top["ends"]) if "ends" in top else None
-    if ends not in (None, "open", "fixed"):
-        raise ConstraintError(f"{source}, line {lines['ends']}: ends must be open or fixed, not {shorten(ends)}")
+    if ends not in (None, "auto", "open", "fixed"):
+        raise ConstraintError(f"{source}, line {lines['ends']}: ends must be auto, open or fixed, not {shorten(ends)}")
     offset_s = None
     if "offset" in top:
         raw = _scalar(top["offset"])

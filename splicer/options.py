@@ -38,7 +38,7 @@ class SpliceOptions:
     coarse_fps: float = D.COARSE_FPS  # rate of the coarse guide pass, frames per second
     coarse_above_s: float = D.COARSE_ABOVE_S
     hands_side: str | None = None  # side of a hand-only file whose names do not say
-    ends: str | None = None  # "open" (find the overlap) or "fixed" (first and last frames match); None: config, else open
+    ends: str | None = None  # "auto", "open" (find the overlap) or "fixed" (first and last frames match); None: config, else auto
     offset_s: float | None = None  # open ends: body frame 0 shows this hands time, seconds (a starting guess)
     uncovered_quantile: float = D.UNCOVERED_QUANTILE  # open ends: an uncovered body frame costs this quantile of D1
     mirror_hands: str | None = None  # "auto", "yes", "no"; None: the config file's, else auto
@@ -53,7 +53,7 @@ class SpliceOptions:
 _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off"),
-            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "open", "fixed")}
+            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "auto", "open", "fixed")}
 _NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
                 "coarse_above_s")
 

@@ -308,6 +308,7 @@ class Alignment:
     constraints: tuple
     covered: tuple | None = None  # (first, last) body frames the hands cover; None: all
     confidence: object = None  # per-frame confidence and estimated error, when computed
+    ends: str = "fixed"  # the end conditions used: "open" or "fixed"
 
     def __repr__(self) -> str:
         return f"Alignment(body_frames={len(self.per_frame)}, passes={[p.name for p in (self.pass1, self.pass2) if p]})"
@@ -330,16 +331,19 @@ def _pin_error(e: SplicerError, pins: tuple[Pin, ...], side: str) -> SplicerErro
     return type(e)(f"{side} side: {e}")
 
 
-def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "open",
+def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
                offset_s: float | None = None) -> Alignment:
     """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed, with a confidence.
 
     Parameters
     ----------
-    ends : {"open", "fixed"}
+    ends : {"auto", "open", "fixed"}
         ``"open"``: the overlap of the two takes is found (the body's span anywhere inside
         the hands take, or the hands covering part of the body); ``"fixed"``: first frames
-        match and last frames match (the paper).
+        match and last frames match (the paper).  ``"auto"`` (the default): open, except that
+        takes found to start and end together are aligned end to end (fixed), and an overlap
+        far shorter than both takes allow is not trusted: the takes are then aligned end to
+        end, with a warning (:func:`_choose_ends`).
     offset_s : float, optional
         Open ends: body frame 0 shows hands time ``offset_s`` (a starting guess, e.g. timecode).
 
@@ -356,35 +360,49 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     s, bmk, hmk = markers.side, markers.body, markers.hands
     n, m = bmk.n_frames, hmk.n_frames
     fps = markers.spaces.body_fps
-    open_ends = ends == "open"
-    band1 = opts.band1 if opts.band1 is not None else (D.OPEN_BAND1 if open_ends else D.BAND1)
-    w1 = band_frames(band1, n=n, fps=fps)
-    w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
-    try:
+
+    def run_pass1(mode: str):
+        open_ends = mode == "open"
+        band1 = opts.band1 if opts.band1 is not None else (D.OPEN_BAND1 if open_ends else D.BAND1)
+        w1 = band_frames(band1, n=n, fps=fps)
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
-    except ConstraintError as e:
-        raise _pin_error(e, markers.pins, s) from None
+        guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
+        p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+                  theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
+                  uncovered_quantile=opts.uncovered_quantile,
+                  coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
+                  coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
+                  progress=lambda f: log.progress(f"{s}: pass 1", f))
+        return p, w1, cons
+
     p1 = p2 = None
     covered = None
+    used = "fixed" if ends == "fixed" else "open"
     try:
         if opts.passes in ("pass1", "both"):
             log.progress(f"{s}: pass 1", 0.0)
-            guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
-            p1 = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
-                       theta=opts.theta, ends=ends, offset_s=offset_s, uncovered_quantile=opts.uncovered_quantile,
-                       coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
-                       coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
-                       progress=lambda f: log.progress(f"{s}: pass 1", f))
+            p1, w1, cons = run_pass1(used)
+            if ends == "auto":
+                why = _choose_ends(p1, n, m, fps, markers.pins)
+                if why is not None:
+                    used = "fixed"
+                    p1, w1, cons = run_pass1("fixed")
+                    if why.startswith("!"):
+                        log.note(f"{s} side: {why[1:]}")
             for msg in getattr(p1, "notes", ()):
                 log.note(f"{s} side: {msg}")
             path, per_frame = p1.path, path_median(p1.path, n)
-            if open_ends:
+            if used == "open":
                 covered = _cover_pins(tuple(int(v) for v in p1.covered), markers.pins, n)
                 if covered != tuple(p1.covered):
                     per_frame = hold_ends(per_frame)
                     per_frame[:covered[0]] = np.nan
                     per_frame[covered[1] + 1:] = np.nan
             log.tick("pass1")
+        else:
+            w1 = band_frames(opts.band1 if opts.band1 is not None else D.BAND1, n=n, fps=fps)
+            cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
+        w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
         if opts.passes == "both":
             log.progress(f"{s}: pass 2", 0.0)
             filled = hold_ends(per_frame)
@@ -414,7 +432,40 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "
                  f"({(covered[1] - covered[0] + 1) / fps:.1f} s of {n / fps:.1f} s): check that both takes show the "
                  "same performance, or pin a matching pair")
-    return Alignment(per_frame, path, p1, p2, cons, covered, conf)
+    return Alignment(per_frame, path, p1, p2, cons, covered, conf, used)
+
+
+#: ends="auto": an open-ended path starting and ending within this of the corners means the
+#: takes start and end together (seconds)
+_TOGETHER_S = 1.0
+#: ends="auto": an overlap shorter than this share of what both takes allow is not trusted
+_PLAUSIBLE_SHARE = 0.5
+
+
+def _choose_ends(p1, n: int, m: int, fps: float, pins) -> str | None:
+    """ends="auto": None to keep the open-ended pass 1, else why to align end to end instead
+    (a leading ``!`` marks a reason worth a warning).
+
+    * The open-ended path starts within :data:`_TOGETHER_S` of both first frames and ends within
+      it of both last frames: the takes start and end together, and fixed ends (the paper) are
+      measured more accurate there (README, *Accuracy*).
+    * The covered span is shorter than :data:`_PLAUSIBLE_SHARE` of the shorter take although no
+      pin says so and the takes last about as long (2/3 to 3/2): with noisy or repetitive
+      motion, an open end can lock onto a short stretch that happens to match; aligning end to
+      end is the safer answer, with a warning.  A hands take much shorter or longer than the
+      body keeps the open-ended answer (stretching it end to end would be worse).
+    """
+    tol = _TOGETHER_S * fps
+    (i0, j0), (i1, j1) = p1.path[0], p1.path[-1]
+    if i0 <= tol and j0 <= tol and (n - 1 - i1) <= tol and (m - 1 - j1) <= tol:
+        return "the takes start and end together"
+    a, b = p1.covered
+    comparable = 2.0 / 3.0 <= m / n <= 1.5  # end to end needs no more than the protocol's 0.5x-2x local speeds
+    if not pins and comparable and (b - a + 1) < _PLAUSIBLE_SHARE * min(n, m):
+        return (f"!the open-ended alignment found an overlap of only {(b - a + 1) / fps:.1f} s (body frames {a}-{b}) "
+                f"although both takes last {min(n, m) / fps:.1f} s or more; it is not trusted and the takes are aligned "
+                "end to end (--ends open keeps it, --ends fixed says so)")
+    return None
 
 
 def _cover_pins(covered: tuple, pins, n: int) -> tuple:
@@ -643,14 +694,15 @@ def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
     out: dict = {}
     aln = r.alignment
     uncovered = frame_ranges(~np.isfinite(r.hands_frame))
-    if aln.covered is not None:
-        out["covered"] = [int(aln.covered[0]), int(aln.covered[1])]
-        out["uncovered"] = uncovered
-        if uncovered:
-            fps = r.markers.spaces.body_fps
-            spans = ", ".join(f"{a}-{b} ({(b - a + 1) / fps:.1f} s)" for a, b in uncovered)
-            log.note(f"{r.side} side: no hands material covers body frames {spans}; they keep the body's own "
-                     "fingers, blended in and out")
+    cov = aln.covered if aln.covered is not None else (0, n - 1)
+    out["ends"] = aln.ends
+    out["covered"] = [int(cov[0]), int(cov[1])]
+    out["uncovered"] = uncovered
+    if uncovered:
+        fps = r.markers.spaces.body_fps
+        spans = ", ".join(f"{a}-{b} ({(b - a + 1) / fps:.1f} s)" for a, b in uncovered)
+        log.note(f"{r.side} side: no hands material covers body frames {spans}; they keep the body's own "
+                 "fingers, blended in and out")
     conf = aln.confidence
     if conf is not None:
         from .report import _round_list
@@ -731,7 +783,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     inputs, out, sides = checked.inputs, checked.inputs.body, {}
     for s in rig.sides:
         markers = side_markers(inputs, rig, s, log)
-        alignment = align_side(markers, opts, log, ends=opts.ends or inputs.config.ends or "open",
+        alignment = align_side(markers, opts, log, ends=opts.ends or inputs.config.ends or "auto",
                                offset_s=opts.offset_s if opts.offset_s is not None else inputs.config.offset_s)
         tm = time_map(alignment, markers, opts)
         transfer = transfer_side(out, inputs, rig, s, alignment, tm, opts, log, pins=markers.pins)

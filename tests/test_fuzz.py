@@ -261,9 +261,9 @@ def _broken_splice(kind):
 
 @pytest.mark.parametrize("kind", ["traceback", "memory", "hang", "bad-message"])
 def test_classifier_recognises_failures(monkeypatch, tmp_path, kind):
-    import splicer.splice
+    import splicer.pipeline
 
-    monkeypatch.setattr(splicer.splice, "splice", _broken_splice(kind))
+    monkeypatch.setattr(splicer.pipeline, "splice", _broken_splice(kind))
     monkeypatch.setattr(fuzzkit, "TIME_LIMIT_S", 1)
     cls, detail = fuzzkit.run_case(_sample_case(), str(tmp_path))
     assert cls == kind, detail

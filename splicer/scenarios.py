@@ -61,7 +61,8 @@ from .model import Motion
 from .roles import Roles, find_roles
 from .rotations import quat_hemisphere, quat_mul, quat_normalize, quat_slerp
 from .separate import _mean_rotation, confine_capture, finger_joints, warp_time_map
-from .timewarp import resample_motion, smooth_noise
+from .timewarp import resample_motion
+from .warps import smooth_noise
 
 __all__ = ["Scenario", "COMPONENTS", "SCENARIOS", "scenario", "ScenarioSeparation", "make_scenario",
            "invert_time", "hands_take_time", "alignment_error_s", "write_scenario"]

@@ -26,7 +26,8 @@ from .kinematics import global_transforms
 from .model import Motion, Skeleton
 from .roles import Roles, find_roles
 from .rotations import quat_angle_deg, quat_conj, quat_hemisphere, quat_mul, quat_normalize, quat_slerp, yaw_quat_deg
-from .timewarp import resample_motion, smooth_monotone_warp, smooth_noise
+from .timewarp import resample_motion
+from .warps import smooth_monotone_warp, smooth_noise
 
 __all__ = ["Separation", "separate", "warp_time_map", "confine_capture", "finger_joints", "moving_finger_joints",
            "wrist_rooted", "forearm_rooted", "hand_only_files", "mirror_motion"]

@@ -21,7 +21,7 @@ from scipy.interpolate import PchipInterpolator
 
 from .model import Motion, Skeleton
 from .rotations import euler_channels_deg, quat_between, quat_mul
-from .timewarp import smooth_noise
+from .warps import smooth_noise
 
 __all__ = ["gesture_skeleton", "make_gesture_take", "FINGER_NAMES"]
 

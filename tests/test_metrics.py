@@ -5,8 +5,8 @@ import pytest
 
 from splicer.dtw import make_band
 from splicer.markers import Markers
-from splicer.metrics import (d1_cost, d1_reference, d2_cost, d2_reference, kgp_theta, palm_features,
-                             phase_features, window_points)
+from references import d1_reference, d2_reference
+from splicer.metrics import d1_cost, d2_cost, kgp_theta, palm_features, phase_features, window_points
 from splicer.rotations import quat_rotate, yaw_quat_deg
 
 

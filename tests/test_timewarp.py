@@ -5,7 +5,8 @@ import pytest
 
 from splicer.model import Motion, Skeleton
 from splicer.rotations import quat_angle_deg, quat_from_euler, quat_normalize
-from splicer.timewarp import resample_motion, sample_linear, sample_rotations, smooth_monotone_warp, smooth_noise
+from splicer.timewarp import resample_motion, sample_linear, sample_rotations
+from splicer.warps import smooth_monotone_warp, smooth_noise
 
 
 def _random_quats(rng, shape):

@@ -1,0 +1,39 @@
+"""Slow plain references of the metric kernels (the tests compare the numba kernels with these)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from splicer.metrics import PalmFeatures, PhaseFeatures, horizontal_axes, kgp_theta
+
+def d1_reference(body: PhaseFeatures, hands: PhaseFeatures, i: int, j: int, theta: str = "window") -> float:
+    """D1 of one cell, written plainly with numpy (for tests)."""
+    if theta == "window":
+        th = kgp_theta(body.window[i], hands.window[j])
+    else:
+        th = body.heading[i] - hands.heading[j]
+    up = body.up
+    a, b = horizontal_axes(up)
+    R = np.eye(3)
+    R[a, a], R[a, b], R[b, a], R[b, b] = np.cos(th), -np.sin(th), np.sin(th), np.cos(th)
+
+    def sgn(x, eps):
+        return np.where(x > eps, 1.0, np.where(x < -eps, -1.0, 0.0))
+
+    vh = hands.vel[j] @ R.T
+    ah = hands.acc[j] @ R.T
+    return float(np.sum((sgn(body.vel[i], body.eps_vel) - sgn(vh, hands.eps_vel)) ** 2)
+                 + np.sum((sgn(body.acc[i], body.eps_acc) - sgn(ah, hands.eps_acc)) ** 2))
+
+
+def d2_reference(body: PalmFeatures, hands: PalmFeatures, i: int, j: int) -> float:
+    """D2 of one cell via scipy rotations (for tests)."""
+    from scipy.spatial.transform import Rotation
+
+    f, h, g, k = body.forearm[i], body.hand[i], hands.forearm[j], hands.hand[j]
+    axis = np.cross(g, f)
+    s = np.linalg.norm(axis)
+    ang = np.arctan2(s, np.dot(g, f))
+    rot = Rotation.from_rotvec(axis / s * ang) if s > 1e-15 else Rotation.identity()
+    rk = rot.apply(k)
+    return float(np.arccos(np.clip(np.dot(h, rk) / np.linalg.norm(rk), -1, 1)))

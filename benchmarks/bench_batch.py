@@ -3,8 +3,8 @@
 Usage: ``python benchmarks/bench_batch.py [pairs] [seconds] [workers] [trials]`` (default 8 pairs
 of 90-s takes, 2 workers, 3 interleaved trials).
 
-The pairs are made by the evaluation protocol (:func:`splicer.separate.separate` of
-:func:`splicer.synth.make_gesture_take` takes, seeds 0..), 30 fps body, 60 fps hands, in the
+The pairs are made by the evaluation protocol (:func:`splicer.evaluation.separate.separate` of
+:func:`splicer.evaluation.synth.make_gesture_take` takes, seeds 0..), 30 fps body, 60 fps hands, in the
 system temp folder.  Timings (wall clock):
 
 * ``serial loop``: :func:`splicer.batch.run_pair` on each pair in turn, in this process,
@@ -32,9 +32,9 @@ if str(REPO) not in sys.path:
 import numpy as np  # noqa: E402
 
 from splicer.batch import PairJob, dask_client, run_batch, run_pair  # noqa: E402
-from splicer.bvh import write_bvh  # noqa: E402
-from splicer.separate import separate  # noqa: E402
-from splicer.synth import make_gesture_take  # noqa: E402
+from splicer.io.bvh import write_bvh  # noqa: E402
+from splicer.evaluation.separate import separate  # noqa: E402
+from splicer.evaluation.synth import make_gesture_take  # noqa: E402
 
 
 def make_pairs(n: int, seconds: float) -> list[PairJob]:

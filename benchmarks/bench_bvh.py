@@ -15,7 +15,7 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:  # run from a checkout without `pip install -e .`
     sys.path.insert(0, str(REPO))
 
-from splicer.bvh import read_bvh, write_bvh  # noqa: E402
+from splicer.io.bvh import read_bvh, write_bvh  # noqa: E402
 from splicer.errors import SplicerWarning  # noqa: E402
 
 SHARED = REPO.parent / "shared" / "motions"

@@ -1,14 +1,14 @@
-"""MOTION-block parsing and formatting speed: splicer.fastparse against pandas, numpy and bvhio.
+"""MOTION-block parsing and formatting speed: splicer.io.fastparse against pandas, numpy and bvhio.
 
 Usage: ``python benchmarks/bench_bvh_parse.py [minutes] [repeats]`` (default 20 minutes, 3 repeats;
 the best time is shown).
 
-The file is the synthetic speaker (:func:`splicer.synth.make_gesture_take`, 159 channels)
-at 60 fps for ``minutes`` minutes, written by :func:`splicer.bvh.write_bvh`
+The file is the synthetic speaker (:func:`splicer.evaluation.synth.make_gesture_take`, 159 channels)
+at 60 fps for ``minutes`` minutes, written by :func:`splicer.io.bvh.write_bvh`
 (cached in the system temp folder).  Every parser reads the same bytes of the motion block
 from memory (the file is read once beforehand), so the figures are parsing, not disk:
 
-* ``fastparse``: :func:`splicer.fastparse.parse_motion_block`, one core;
+* ``fastparse``: :func:`splicer.io.fastparse.parse_motion_block`, one core;
 * ``pandas C``: ``pd.read_csv(sep=" ", header=None, engine="c")``;
 * ``numpy.loadtxt``;
 * ``bvhio``: ``bvhio.readAsBvh`` of the whole file from disk (its own parser; it builds one
@@ -33,9 +33,9 @@ if str(REPO) not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from splicer.bvh import write_bvh  # noqa: E402
-from splicer.fastparse import count_rows, format_motion_block, parse_motion_block  # noqa: E402
-from splicer.synth import make_gesture_take  # noqa: E402
+from splicer.io.bvh import write_bvh  # noqa: E402
+from splicer.io.fastparse import count_rows, format_motion_block, parse_motion_block  # noqa: E402
+from splicer.evaluation.synth import make_gesture_take  # noqa: E402
 
 
 def best_of(repeats: int, fn) -> float:

@@ -29,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from splicer.dtw import band_frames, dtw_features, make_band  # noqa: E402
+from splicer.align.dtw import band_frames, dtw_features, make_band  # noqa: E402
 
 LIMIT_GB = 4.0
 D = 12  # 4 markers x 3 coordinates
@@ -53,7 +53,7 @@ def marker_like(rng, n):
 _MEM_SNIPPET = """
 import sys, numpy as np
 sys.path.insert(0, {root!r})
-from splicer.dtw import make_band, dtw_features
+from splicer.align.dtw import make_band, dtw_features
 def hwm():
     return [int(l.split()[1]) for l in open('/proc/self/status') if l.startswith('VmHWM')][0]
 n, W = {n}, {W}
@@ -135,7 +135,7 @@ def open_cases(quick: bool) -> int:
     an N-normalisable pattern, so the recurrence and the cost differ from ours; we compare the
     located span instead of the cost)."""
     import dtw as dtwpy
-    from splicer.band import full_band
+    from splicer.align.band import full_band
     print("\n### Open ends: locate a warped body span inside a longer hands take (full matrix, with path)\n")
     print("| n | m | splicer ms | dtw-python ms | true span | splicer span | dtw-python span | splicer steps MB |")
     print("|---|---|---|---|---|---|---|---|")

@@ -19,10 +19,10 @@ from scipy.ndimage import gaussian_filter1d
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from splicer.align import pass1, path_median, warp_markers  # noqa: E402
-from splicer.confidence import pass_confidence  # noqa: E402
-from splicer.markers import Markers  # noqa: E402
-from splicer.openend import OPEN_COARSE_FPS, coarse_rate  # noqa: E402
+from splicer.align.passes import pass1, path_median, warp_markers  # noqa: E402
+from splicer.align.confidence import pass_confidence  # noqa: E402
+from splicer.rig.markers import Markers  # noqa: E402
+from splicer.align.openend import OPEN_COARSE_FPS, coarse_rate  # noqa: E402
 
 FPS = 30.0
 

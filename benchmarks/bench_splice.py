@@ -1,6 +1,6 @@
 """Speed of the splice, stage by stage and side by side, with peak memory.
 
-Pairs (made by :func:`splicer.separate.separate`, ALGORITHM.md section 8):
+Pairs (made by :func:`splicer.evaluation.separate.separate`, ALGORITHM.md section 8):
 
 * ``zeggs``: ``../shared/motions/zeggs/067_Speech_2_x_1_0.bvh`` separated with seed 0 (body
   30 fps, hands 60 fps); skipped with a note when the shared folder is absent;
@@ -54,9 +54,9 @@ def _status_kb(key: str) -> float | None:
 def child(pickle_path: str, options_json: str) -> None:
     """Run in a child process: load the pair, warm up, splice, print one JSON line."""
     sys.path.insert(0, str(REPO))
-    from splicer.separate import separate
+    from splicer.evaluation.separate import separate
     from splicer import splice
-    from splicer.synth import make_gesture_take
+    from splicer.evaluation.synth import make_gesture_take
 
     rng = np.random.default_rng(1)
     tiny = separate(make_gesture_take(4, 30, rng), rng=rng)
@@ -125,14 +125,14 @@ def cli_child(body: str, hands: str, out: str, report: str) -> None:
 
 
 def run_cli(sep, tmp: Path) -> dict:
-    from splicer.bvh import write_bvh
+    from splicer.io.bvh import write_bvh
 
     body, hands, out, rep = tmp / "body.bvh", tmp / "hands.bvh", tmp / "out.bvh", tmp / "report.json"
     write_bvh(sep.body, body)
     write_bvh(sep.hands, hands)
     # warm the numba cache in this environment first (a user's second run)
-    subprocess.run([sys.executable, "-c", "import numpy as np; from splicer.synth import make_gesture_take; "
-                    "from splicer.separate import separate; from splicer import splice; "
+    subprocess.run([sys.executable, "-c", "import numpy as np; from splicer.evaluation.synth import make_gesture_take; "
+                    "from splicer.evaluation.separate import separate; from splicer import splice; "
                     "r = np.random.default_rng(1); s = separate(make_gesture_take(4, 30, r), rng=r); "
                     "splice(s.body, s.hands, band1='2s', coarse='on')"], check=True, cwd=str(REPO))
     res = subprocess.run([sys.executable, __file__, "--cli", str(body), str(hands), str(out), str(rep)],
@@ -184,9 +184,9 @@ def main(argv=None) -> int:
         cli_child(*args.cli)
         return 0
     sys.path.insert(0, str(REPO))
-    from splicer.bvh import read_bvh
-    from splicer.separate import separate
-    from splicer.synth import make_gesture_take
+    from splicer.io.bvh import read_bvh
+    from splicer.evaluation.separate import separate
+    from splicer.evaluation.synth import make_gesture_take
 
     results, notes = [], []
     with tempfile.TemporaryDirectory() as d:

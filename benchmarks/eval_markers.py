@@ -1,7 +1,7 @@
 """Marker-based alignment beside the virtual-marker one, on the ground-truth protocol (issue 14).
 
-For each seed, :func:`splicer.separate.separate` splits the take into body, hands and truth;
-:func:`splicer.marker_synth.skin_markers` makes each session's optical markers (styloids,
+For each seed, :func:`splicer.evaluation.separate.separate` splits the take into body, hands and truth;
+:func:`splicer.evaluation.marker_synth.skin_markers` makes each session's optical markers (styloids,
 forearm cluster, hand and shoulder-girdle markers at fixed skin offsets, 1-2 mm noise,
 occlusion gaps of 0.05-1 s, six per marker and minute, at 100 Hz for the hands and 120 Hz for
 the body); they are written as C3D and read back, then the splice aligns on
@@ -12,7 +12,7 @@ the body); they are written as C3D and read back, then the splice aligns on
 
 all with the default options (full method, smooth time map, open ends); and, to show where the
 difference comes from, both C3D without noise and gaps, with noise only, with gaps only.  Alignment error: body frames,
-as in :mod:`splicer.evaluate` (a body frame left uncovered is scored with the nearest covered hands frame;
+as in :mod:`splicer.evaluation.evaluate` (a body frame left uncovered is scored with the nearest covered hands frame;
 "uncovered" is their share).
 
     python benchmarks/eval_markers.py [--seeds 100 101 102 103 104] [--out notes/eval_markers.md]
@@ -31,12 +31,12 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from splicer.bvh import read_bvh  # noqa: E402
-from splicer.evaluate import _alignment_scores  # noqa: E402
-from splicer.marker_synth import skin_markers  # noqa: E402
+from splicer.io.bvh import read_bvh  # noqa: E402
+from splicer.evaluation.evaluate import _alignment_scores  # noqa: E402
+from splicer.evaluation.marker_synth import skin_markers  # noqa: E402
 from splicer.pipeline import splice  # noqa: E402
-from splicer.separate import separate  # noqa: E402
-from splicer.trajectories import read_c3d, write_c3d  # noqa: E402
+from splicer.evaluation.separate import separate  # noqa: E402
+from splicer.io.trajectories import read_c3d, write_c3d  # noqa: E402
 
 TAKE = ROOT.parent / "shared" / "motions" / "zeggs" / "067_Speech_2_x_1_0.bvh"
 METHODS = ("virtual markers (both BVHs)", "hands C3D + body virtual", "both C3D")
@@ -101,9 +101,9 @@ def gapfill_validation(path: Path = SHARED_C3D, lengths_s=(0.1, 0.3, 0.6), trial
     (rigid from its segment, and cubic alone), RMS distance to the hidden samples, median over trials."""
     import dataclasses
 
-    from splicer.gapfill import fill_gaps
-    from splicer.marker_roles import find_marker_roles
-    from splicer.trajectories import read_trajectories
+    from splicer.rig.gapfill import fill_gaps
+    from splicer.rig.marker_roles import find_marker_roles
+    from splicer.io.trajectories import read_trajectories
 
     t = read_trajectories(path)
     roles = find_marker_roles(t, "right")
@@ -135,7 +135,7 @@ def real_warp_check(path: Path = SHARED_C3D) -> str:
     import dataclasses
 
     from splicer.markers_cli import align_marker_files, retime
-    from splicer.trajectories import read_c3d
+    from splicer.io.trajectories import read_c3d
 
     t = read_c3d(path)
     m = int((t.n_frames - 1) / t.fps * 120.0) + 1
@@ -143,7 +143,7 @@ def real_warp_check(path: Path = SHARED_C3D) -> str:
     src = (u + 0.06 * np.sin(2 * np.pi * u) + 0.03 * np.sin(4 * np.pi * u)) * (t.n_frames - 1)
     speed = np.gradient(src) / (t.fps / 120.0)
     h = dataclasses.replace(t, points=retime(t, src, fps=120.0, first_frame=1), fps=120.0, source="warped.c3d")
-    from splicer.align import hold_ends
+    from splicer.align.passes import hold_ends
 
     tm = align_marker_files(t, h).time_maps["right"]
     truth = np.interp(np.arange(t.n_frames), src, np.arange(m))

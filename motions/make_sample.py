@@ -4,9 +4,9 @@
 
 Writes
 
-* ``sample_body.bvh``  — 20 s of a procedural speaker (:mod:`splicer.synth`) at 30 fps, fingers at identity;
+* ``sample_body.bvh``  — 20 s of a procedural speaker (:mod:`splicer.evaluation.synth`) at 30 fps, fingers at identity;
 * ``sample_hands.bvh`` — the same performance as a separate hand capture at 60 fps: re-timed by a
-  smooth warp (local speed 0.5x-2x), arms confined, root still and turned (:mod:`splicer.separate`);
+  smooth warp (local speed 0.5x-2x), arms confined, root still and turned (:mod:`splicer.evaluation.separate`);
 * ``sample_truth.csv`` — for every body frame, the fractional hands frame showing the same instant;
 * ``sample_sync.yaml`` — an example constraints file with a few pairs taken from the truth.
 
@@ -26,9 +26,9 @@ try:
 except ImportError:  # run from a checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from splicer.bvh import write_bvh  # noqa: E402
-from splicer.separate import separate  # noqa: E402
-from splicer.synth import make_gesture_take  # noqa: E402
+from splicer.io.bvh import write_bvh  # noqa: E402
+from splicer.evaluation.separate import separate  # noqa: E402
+from splicer.evaluation.synth import make_gesture_take  # noqa: E402
 
 SEED = 2006
 SECONDS = 20.0

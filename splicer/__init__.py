@@ -45,20 +45,20 @@ __version__ = "0.2.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)
-from .model import Motion, Skeleton  # noqa: E402
+from .model.motion import Motion, Skeleton  # noqa: E402
 
 #: public name -> module that defines it (loaded on first access)
 _LAZY = {
-    "read_bvh": ".bvh", "write_bvh": ".bvh",
+    "read_bvh": ".io.bvh", "write_bvh": ".io.bvh",
     "splice": ".pipeline", "SpliceResult": ".pipeline", "SideResult": ".pipeline",
     "load_inputs": ".pipeline", "find_rig": ".pipeline", "condition_hands": ".pipeline", "check_fingers": ".pipeline", "side_markers": ".pipeline", "align_side": ".pipeline",
     "time_map": ".pipeline", "transfer_side": ".pipeline", "build_report": ".pipeline",
     "SpliceOptions": ".options",
     "Report": ".report", "SideReport": ".report",
-    "read_config": ".constraints", "parse_config": ".constraints", "SpliceConfig": ".constraints",
-    "Pin": ".frames",
-    "find_roles": ".roles",
-    "Trajectories": ".trajectories", "read_trajectories": ".trajectories", "write_c3d": ".trajectories",
+    "read_config": ".io.config", "parse_config": ".io.config", "SpliceConfig": ".io.config",
+    "Pin": ".align.frames",
+    "find_roles": ".rig.roles",
+    "Trajectories": ".io.trajectories", "read_trajectories": ".io.trajectories", "write_c3d": ".io.trajectories",
     "align_marker_files": ".markers_cli",
 }
 

@@ -310,7 +310,7 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
     """
     import warnings
 
-    from .bvh import write_bvh
+    from .io.bvh import write_bvh
     from .pipeline import splice
 
     out = Path(out_dir)

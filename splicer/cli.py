@@ -20,9 +20,9 @@ import time
 import warnings
 from pathlib import Path
 
-from .atomic import Transaction, write_atomic
+from .io.atomic import Transaction, write_atomic
 from .errors import SplicerError
-from .limits import one_line, shorten
+from .io.limits import one_line, shorten
 
 EXAMPLES = """\
 examples:
@@ -209,7 +209,7 @@ def main(argv=None) -> int:
     old_handlers = _install_handlers()
     tx = Transaction()
     try:
-        from .bvh import write_bvh
+        from .io.bvh import write_bvh
         from .pipeline import splice
 
         out = Path(args.output)

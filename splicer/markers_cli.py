@@ -105,7 +105,7 @@ def retime(traj, frames: np.ndarray, *, fps: float, first_frame: int, columns=No
 
 
 def _sides_for(body, hands, side: str, cfg, log) -> list[str]:
-    from .marker_roles import marker_sides
+    from .rig.marker_roles import marker_sides
 
     if side in ("left", "right"):
         return [side]
@@ -145,13 +145,13 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
         Unreadable file, roles missing, band errors (one line each).
     """
     from . import __version__
-    from .constraints import SpliceConfig, read_config
-    from .frames import FrameSpaces, pins_from_config
-    from .marker_roles import arm_from_trajectories
+    from .io.config import SpliceConfig, read_config
+    from .align.frames import FrameSpaces, pins_from_config
+    from .rig.marker_roles import arm_from_trajectories
     from .options import resolve_options
     from .pipeline import Log, SideMarkers, SideResult, _align_up, _coverage_report, align_side, time_map
     from .report import Report, SideReport
-    from .trajectories import Trajectories, read_trajectories
+    from .io.trajectories import Trajectories, read_trajectories
 
     log = log or Log()
     opts = resolve_options(options, overrides)
@@ -163,7 +163,7 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     log.tick("read")
     spaces = FrameSpaces(bt.n_frames, ht.n_frames, bt.fps, ht.fps)
     maps, side_reports, columns = {}, {}, {}
-    from .align import resample_markers
+    from .align.passes import resample_markers
 
     sides = _sides_for(bt, ht, side, cfg, log)
     unsided = any("neither marker file names a side" in w for w in log.warnings)
@@ -261,7 +261,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     t0 = time.perf_counter()
     try:
-        from .trajectories import write_c3d, write_trc
+        from .io.trajectories import write_c3d, write_trc
 
         out = Path(args.output)
         if out.suffix.lower() not in (".c3d", ".trc"):

@@ -54,11 +54,11 @@ class TakeSignature:
 
 def take_signature(path, *, fps: float = 5.0, hands_side: str | None = None) -> TakeSignature:
     """Read ``path`` and compute its coarse markers per side (never raises for bad input)."""
-    from .align import resample_markers
-    from .bvh import read_bvh
+    from .align.passes import resample_markers
+    from .io.bvh import read_bvh
     from .errors import SplicerError
-    from .markers import arm_markers
-    from .roles import FINGERS, find_roles
+    from .rig.markers import arm_markers
+    from .rig.roles import FINGERS, find_roles
 
     import warnings
 
@@ -97,8 +97,8 @@ def pair_cost(body: TakeSignature, hands: TakeSignature, *, band: str = "60%") -
     float
         D1 per step, 0..96 (squared sign differences of 24 components).
     """
-    from .align import pass1
-    from .band import band_frames
+    from .align.passes import pass1
+    from .align.band import band_frames
     from .errors import SplicerError
     from .pipeline import _align_up
 

@@ -16,8 +16,8 @@ import numpy as np
 
 from . import defaults as D
 from .errors import BandError, ConstraintError, SplicerError, SplicerWarning
-from .frames import FrameSpaces, Pin, pins_from_config
-from .model import Motion
+from .align.frames import FrameSpaces, Pin, pins_from_config
+from .model.motion import Motion
 from .options import SpliceOptions, resolve_options
 from .report import Report, SideReport
 
@@ -78,8 +78,8 @@ def load_inputs(body, hands, config=None, log: Log | None = None, *, body_marker
 
     ``body_markers``, ``hands_markers``: optional marker files (C3D, TRC, CSV; paths or
     :class:`~splicer.trajectories.Trajectories`) captured with each take, used for the alignment."""
-    from .bvh import read_bvh
-    from .constraints import SpliceConfig, read_config
+    from .io.bvh import read_bvh
+    from .io.config import SpliceConfig, read_config
 
     log = log or Log()
     log.progress("read", 0.0)
@@ -97,7 +97,7 @@ def load_inputs(body, hands, config=None, log: Log | None = None, *, body_marker
     mks = []
     for mk in (body_markers, hands_markers):
         if isinstance(mk, (str, Path)):
-            from .trajectories import read_trajectories
+            from .io.trajectories import read_trajectories
 
             mk = read_trajectories(mk)
         for w in getattr(mk, "warnings", ()):
@@ -127,9 +127,9 @@ def find_rig(inputs: Inputs, opts: SpliceOptions, log: Log | None = None) -> Rig
     SplicerError
         No side can be spliced.
     """
-    from .limits import check_takes
-    from .roles import FINGERS, SIDES, find_roles
-    from .upaxis import detect_up
+    from .io.limits import check_takes
+    from .rig.roles import FINGERS, SIDES, find_roles
+    from .rig.upaxis import detect_up
 
     log = log or Log()
     bm, hm, cfg = inputs.body, inputs.hands, inputs.config
@@ -189,8 +189,8 @@ def condition_hands(inputs: Inputs, rig: Rig, opts: SpliceOptions, log: Log | No
     SplicerError
         The handedness cannot be decided in ``auto`` mode (contradicting geometry).
     """
-    from .handedness import resolve_handedness
-    from .repair import hand_joints, repair_motion, repairs_summary
+    from .rig.handedness import resolve_handedness
+    from .rig.repair import hand_joints, repair_motion, repairs_summary
 
     log = log or Log()
     hm, repairs = inputs.hands, []
@@ -231,7 +231,7 @@ class SideMarkers:
 
 def _align_up(markers, up_to: int):
     """Relabel axes cyclically (a proper rotation) so the vertical axis becomes ``up_to``."""
-    from .markers import Markers
+    from .rig.markers import Markers
 
     if markers.up == up_to:
         return markers
@@ -243,9 +243,9 @@ def _align_up(markers, up_to: int):
 
 def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) -> SideMarkers:
     """Virtual markers of ``side`` in both takes, the hands brought to the body's rate and up axis."""
-    from .align import resample_markers
-    from .handonly import coincident_forearm, hand_only_view, is_hand_only
-    from .markers import arm_markers
+    from .align.passes import resample_markers
+    from .rig.handonly import coincident_forearm, hand_only_view, is_hand_only
+    from .rig.markers import arm_markers
 
     log = log or Log()
     log.progress(f"{side}: markers", 0.0)
@@ -262,7 +262,7 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     for take, traj, motion in (("body", inputs.body_markers, bm), ("hands", inputs.hands_markers, hm)):
         if traj is None:
             continue
-        from .marker_roles import arm_from_trajectories, on_frames
+        from .rig.marker_roles import arm_from_trajectories, on_frames
 
         arm = arm_from_trajectories(traj, side, mapping=inputs.config.markers.get(take))
         if not arm.roles.sided and len(rig.sides) > 1 and inputs.config.hands_side != side:
@@ -352,9 +352,9 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     SplicerError
         A band that cannot reach the pins, named by their file and line.
     """
-    from .align import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
-    from .band import band_frames
-    from .confidence import pass_confidence
+    from .align.passes import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
+    from .align.band import band_frames
+    from .align.confidence import pass_confidence
 
     log = log or Log()
     s, bmk, hmk = markers.side, markers.body, markers.hands
@@ -488,7 +488,7 @@ def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) ->
     np.ndarray [shape=(n_body,), dtype=float64]
         Non-decreasing over the covered frames, within ``[0, n_hands - 1]``; NaN elsewhere.
     """
-    from .merge import hold_pins, pin_constraints, smooth_time_map
+    from .transfer.timemap import hold_pins, pin_constraints, smooth_time_map
 
     sp = markers.spaces
     n = len(alignment.per_frame)
@@ -532,8 +532,8 @@ def check_fingers(transfer: Transfer, side: str, inputs: Inputs, rig: Rig, tm: n
 
     Returns the JSON-ready report keys and adds a warning per finger that bends worse than its source.
     """
-    from .handgeom import hand_frame_warnings
-    from .sanity import finger_sanity, sanity_warnings
+    from .rig.handgeom import hand_frame_warnings
+    from .transfer.sanity import finger_sanity, sanity_warnings
 
     log = log or Log()
     hm, harm = inputs.hands, rig.hands.sides[side]
@@ -561,13 +561,13 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
     A body without finger joints gets the hands' finger subtree grafted under its wrist.
     The median merge (the paper) takes rotation medians along the path and blends jumps.
     """
-    from .merge import blend_jumps, coverage_weights, median_rotations
-    from .roles import FINGERS, find_roles
-    from .rotations import quat_slerp
-    from .timewarp import sample_rotations
-    from .handgeom import graft_scale
-    from .handonly import coincident_forearm, wrist_source_notes
-    from .transfer import FingerMap, carried_rotations, finger_map, graft_fingers
+    from .transfer.timemap import blend_jumps, coverage_weights, median_rotations
+    from .rig.roles import FINGERS, find_roles
+    from .model.rotations import quat_slerp
+    from .transfer.sampling import sample_rotations
+    from .rig.handgeom import graft_scale
+    from .rig.handonly import coincident_forearm, wrist_source_notes
+    from .transfer.fingers import FingerMap, carried_rotations, finger_map, graft_fingers
 
     log = log or Log()
     log.progress(f"{side}: transfer", 0.0)
@@ -689,7 +689,7 @@ LOW_CONFIDENCE_S = 0.1
 
 def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
     """Report keys for covered/uncovered frames and confidence; warnings for the summary."""
-    from .merge import frame_ranges
+    from .transfer.timemap import frame_ranges
 
     out: dict = {}
     aln = r.alignment

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_atomic
+from .io.atomic import write_atomic
 from .errors import SplicerError
 
 __all__ = ["band_image", "plot_alignment"]
@@ -73,7 +73,7 @@ def _draw_pass(ax, pr, title, constraints=()):
 
 def _shade(ax, mask: np.ndarray, color: str, label: str) -> None:
     """Shade the runs of ``mask`` (body frames) on a time-map axis, one legend entry."""
-    from .merge import frame_ranges
+    from .transfer.timemap import frame_ranges
 
     for k, (a, b) in enumerate(frame_ranges(mask)):
         ax.axvspan(a - 0.5, b + 0.5, color=color, alpha=0.2, lw=0, label=label if k == 0 else None)
@@ -93,7 +93,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from .align import hold_ends, path_median, remap_constraints
+    from .align.passes import hold_ends, path_median, remap_constraints
     from .pipeline import LOW_CONFIDENCE_S
 
     sides = list(result.sides.values())

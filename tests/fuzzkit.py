@@ -338,7 +338,7 @@ def _scratch_root() -> str:
 
 def run_case(case: Case, root: str) -> tuple[str, str]:
     """Run one case in this process; returns (class, detail)."""
-    from splicer.bvh import read_bvh
+    from splicer.io.bvh import read_bvh
     from splicer.cli import main
 
     d = tempfile.mkdtemp(prefix="fuzz-", dir=root)

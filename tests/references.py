@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from splicer.metrics import PalmFeatures, PhaseFeatures, horizontal_axes, kgp_theta
+from splicer.align.costs import PalmFeatures, PhaseFeatures, horizontal_axes, kgp_theta
 
 def d1_reference(body: PhaseFeatures, hands: PhaseFeatures, i: int, j: int, theta: str = "window") -> float:
     """D1 of one cell, written plainly with numpy (for tests)."""

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from splicer.align import compose, guided_band, path_median, remap_constraints
-from splicer.dtw import Constraint, dtw, make_band
+from splicer.align.passes import compose, guided_band, path_median, remap_constraints
+from splicer.align.dtw import Constraint, dtw, make_band
 from splicer.errors import BandError
-from splicer.separate import separate
+from splicer.evaluation.separate import separate
 from splicer import splice
-from splicer.synth import make_gesture_take
+from splicer.evaluation.synth import make_gesture_take
 
 
 def test_path_median_and_compose():
@@ -61,7 +61,7 @@ def test_coarse_guide_keeps_a_drifting_take_in_a_narrow_band():
 
 def _ramp_markers(values, fps=120.0):
     """Markers whose every coordinate is ``values`` (T,), shoulder 2x, heading 0.1x."""
-    from splicer.markers import Markers
+    from splicer.rig.markers import Markers
 
     v = np.asarray(values, dtype=float)
     return Markers(np.broadcast_to(v[:, None, None], (len(v), 4, 3)).copy(), np.stack([2 * v] * 3, axis=1),
@@ -69,7 +69,7 @@ def _ramp_markers(values, fps=120.0):
 
 
 def test_warp_markers_samples_linearly_and_keeps_the_rate_unless_told():
-    from splicer.align import warp_markers
+    from splicer.align.passes import warp_markers
 
     mk = _ramp_markers([0.0, 10.0, 40.0], fps=30.0)
     out = warp_markers(mk, np.array([0.5, 1.5, 2.0, 0.0]))
@@ -82,7 +82,7 @@ def test_warp_markers_samples_linearly_and_keeps_the_rate_unless_told():
 
 
 def test_resample_markers_up_and_down():
-    from splicer.align import resample_markers
+    from splicer.align.passes import resample_markers
 
     mk = _ramp_markers([0.0, 10.0, 40.0], fps=30.0)
     assert resample_markers(mk, 30.0) is mk
@@ -116,7 +116,7 @@ def test_resample_markers_up_and_down():
 
 def _arm(n, fps=30.0, seed=0):
     """Markers of a smooth made-up arm motion: every coordinate a sinusoid (cm), 30 fps."""
-    from splicer.markers import Markers
+    from splicer.rig.markers import Markers
 
     rng = np.random.default_rng(seed)
     t = np.arange(n) / fps
@@ -131,7 +131,7 @@ def _arm(n, fps=30.0, seed=0):
 def _warped(n=90, m=110):
     """Body markers and hands markers that show body frame w(j) = 89 (j / 109)^1.2 at frame j;
     the true hands frame of each body frame is the inverse of w."""
-    from splicer.align import warp_markers
+    from splicer.align.passes import warp_markers
 
     body = _arm(n)
     w = (n - 1) * (np.arange(m) / (m - 1)) ** 1.2
@@ -144,7 +144,7 @@ def _path_cost(pr):
 
 
 def test_pass1_of_identical_takes_is_the_diagonal_at_zero_cost():
-    from splicer.align import pass1
+    from splicer.align.passes import pass1
 
     body = _arm(90)
     pr = pass1(body, body, width=10.0)
@@ -155,7 +155,7 @@ def test_pass1_of_identical_takes_is_the_diagonal_at_zero_cost():
 
 
 def test_pass1_recovers_a_known_warp_and_honours_a_pin():
-    from splicer.align import pass1, path_median
+    from splicer.align.passes import pass1, path_median
 
     body, hands, truth = _warped()
     pr = pass1(body, hands, width=20.0)
@@ -179,8 +179,8 @@ def test_pass1_recovers_a_known_warp_and_honours_a_pin():
 
 
 def test_pass1_features_follow_its_settings_and_coarse_only_below_the_rate():
-    from splicer.align import pass1
-    from splicer.metrics import d1_cost, phase_features
+    from splicer.align.passes import pass1
+    from splicer.align.costs import d1_cost, phase_features
 
     body, hands, _ = _warped()
     pr = pass1(body, hands, width=20.0, smooth_s=0.2, dead_zone=0.3, theta="heading")
@@ -194,7 +194,7 @@ def test_pass1_features_follow_its_settings_and_coarse_only_below_the_rate():
 
 
 def test_pass2_of_identical_takes_and_its_weights():
-    from splicer.align import pass2, path_median, warp_markers
+    from splicer.align.passes import pass2, path_median, warp_markers
 
     body = _arm(90)
     pr = pass2(body, body, width=5.0)
@@ -210,7 +210,7 @@ def test_pass2_of_identical_takes_and_its_weights():
 
 
 def test_pass2_cost_adds_the_departure_penalty_and_normalised_d1():
-    from splicer.align import _pass2_cost
+    from splicer.align.passes import _pass2_cost
 
     band = make_band(5, 9, 4.0)
     d2 = lambda b, i0, i1: np.zeros((i1 - i0, b.max_row_width))  # noqa: E731

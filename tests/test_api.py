@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import splicer
-from splicer.constraints import parse_config
-from splicer.frames import FrameSpaces, Pin
-from splicer.merge import hold_pins
+from splicer.io.config import parse_config
+from splicer.align.frames import FrameSpaces, Pin
+from splicer.transfer.timemap import hold_pins
 
 MOTIONS = Path(__file__).resolve().parents[1] / "motions"
 BODY, HANDS = MOTIONS / "sample_body.bvh", MOTIONS / "sample_hands.bvh"

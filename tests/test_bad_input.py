@@ -14,9 +14,9 @@ import time
 import pytest
 
 from fault_helpers import SMALL_SYNC, one_error_line, run_cli, small_files, temporaries
-from splicer import limits
-from splicer.bvh import read_bvh
-from splicer.constraints import frame_number, parse_config
+from splicer.io import limits
+from splicer.io.bvh import read_bvh
+from splicer.io.config import frame_number, parse_config
 from splicer.errors import BVHError, ConstraintError
 
 
@@ -424,7 +424,7 @@ def test_output_that_is_a_device_or_a_pipe_is_refused(tmp_path, takes, dest):
         os.mkfifo(dest)
     _refused(tmp_path, [body, hands, "-o", dest, "-q"], "exists and is not a regular file")
     assert os.path.exists("/dev/null") and not os.path.isfile("/dev/null")
-    from splicer.atomic import write_atomic
+    from splicer.io.atomic import write_atomic
     from splicer.errors import SplicerError
 
     with pytest.raises(SplicerError, match="is not a regular file"):

@@ -1,4 +1,4 @@
-"""Worked answers for splicer.band: band geometry by hand, the band-width policy and the
+"""Worked answers for splicer.align.band: band geometry by hand, the band-width policy and the
 Band record (ALGORITHM.md sections 2-3; test_dtw.py checks the band against the DTW)."""
 
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from splicer.band import Band, Constraint, band_frames, make_band
+from splicer.align.band import Band, Constraint, band_frames, make_band
 from splicer.errors import BandError, ConstraintError
 
 

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from splicer.align import guided_band
-from splicer.band import Band, Constraint, full_band
+from splicer.align.passes import guided_band
+from splicer.align.band import Band, Constraint, full_band
 from splicer.errors import BandError, ConstraintError
-from splicer.openend import coarse_rate, offset_band, uncovered_penalty
+from splicer.align.openend import coarse_rate, offset_band, uncovered_penalty
 
 
 def test_open_band_invariants():

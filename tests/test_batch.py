@@ -15,10 +15,10 @@ distributed = pytest.importorskip("distributed")
 
 from splicer.batch import (ManifestError, PairJob, is_finished, job_hash, main, pair_folders,  # noqa: E402
                            read_manifest, run_batch)
-from splicer.bvh import read_bvh, write_bvh  # noqa: E402
+from splicer.io.bvh import read_bvh, write_bvh  # noqa: E402
 from splicer.pairing import decide_pairs  # noqa: E402
-from splicer.separate import separate  # noqa: E402
-from splicer.synth import make_gesture_take  # noqa: E402
+from splicer.evaluation.separate import separate  # noqa: E402
+from splicer.evaluation.synth import make_gesture_take  # noqa: E402
 
 MOTIONS = Path(__file__).resolve().parents[1] / "motions"
 

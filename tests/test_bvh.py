@@ -1,4 +1,4 @@
-"""Tests of splicer.bvh: reading, writing, round trips and messages for malformed files."""
+"""Tests of splicer.io.bvh: reading, writing, round trips and messages for malformed files."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from splicer import bvh as bvh_module
-from splicer.bvh import read_bvh, write_bvh
+from splicer.io import bvh as bvh_module
+from splicer.io.bvh import read_bvh, write_bvh
 from splicer.errors import BVHError, SplicerWarning
-from splicer.model import Motion, Skeleton
+from splicer.model.motion import Motion, Skeleton
 
 DATA = Path(__file__).resolve().parent / "data"
 FIXTURES = sorted(DATA.glob("*.bvh"))

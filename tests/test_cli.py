@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from splicer.bvh import read_bvh
+from splicer.io.bvh import read_bvh
 from splicer.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Confidence from the cost landscape (splicer.confidence): forward + backward forced-path costs
+"""Confidence from the cost landscape (splicer.align.confidence): forward + backward forced-path costs
 against a plain-Python full-matrix reference, against pinned DTW runs, and hand-checked spreads."""
 
 from __future__ import annotations
@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from splicer.band import full_band, make_band
-from splicer.confidence import Confidence, pass_confidence, row_confidence, through_costs
-from splicer.dtw import dtw
+from splicer.align.band import full_band, make_band
+from splicer.align.confidence import Confidence, pass_confidence, row_confidence, through_costs
+from splicer.align.dtw import dtw
 
 from test_dtw import as_callable, random_constraints
 from test_openend import band_mask, marker_like, sample, smooth_warp, sqdist
@@ -173,7 +173,7 @@ def test_a_hold_is_less_certain_than_motion(rng):
 
 
 def test_pass_confidence_uses_the_pass(rng):
-    from splicer.align import PassResult
+    from splicer.align.passes import PassResult
     C = rng.random((12, 15))
     band = make_band(12, 15, 8.0)
     res = dtw(C, band)
@@ -193,8 +193,8 @@ def as_callable_band(C):
 
 def test_pass2_over_a_covered_span_and_its_confidence(rng):
     """Pass 2 after open ends: aligned on the covered span only, reported on every body row."""
-    from splicer.align import hold_ends, pass2, warp_markers
-    from splicer.markers import Markers
+    from splicer.align.passes import hold_ends, pass2, warp_markers
+    from splicer.rig.markers import Markers
     n = 150
     pts = np.cumsum(rng.normal(size=(n, 4, 3)), axis=0)
     body = Markers(pts, np.zeros((n, 3)), np.zeros(n), 1, 30.0, "right")

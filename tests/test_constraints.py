@@ -1,12 +1,12 @@
-"""Worked answers for splicer.constraints: the documented example file, frame numbers from
+"""Worked answers for splicer.io.config: the documented example file, frame numbers from
 frames or seconds, and errors that name the file and line."""
 
 import textwrap
 
 import pytest
 
-import splicer.constraints as constraints_module
-from splicer.constraints import PairSpec, frame_number, parse_config, read_config
+import splicer.io.config as constraints_module
+from splicer.io.config import PairSpec, frame_number, parse_config, read_config
 from splicer.errors import ConstraintError
 
 

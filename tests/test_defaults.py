@@ -3,8 +3,8 @@
 import inspect
 
 from splicer import defaults
-from splicer.align import pass1, pass2
-from splicer.metrics import phase_features
+from splicer.align.passes import pass1, pass2
+from splicer.align.costs import phase_features
 from splicer.options import SpliceOptions
 
 

@@ -1,8 +1,8 @@
-"""Tests of the banded DTW engine (splicer.dtw) and its band geometry (splicer.band).
+"""Tests of the banded DTW engine (splicer.align.dtw) and its band geometry (splicer.align.band).
 
 The kernels are compared with a slow plain-Python reference that builds the full n x m
 admissibility mask directly from ALGORITHM.md sections 2-3 (0-based form, see the
-splicer.band module docstring) and fills the full gamma matrix.
+splicer.align.band module docstring) and fills the full gamma matrix.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from splicer import dtw as dtw_module
-from splicer.dtw import Band, Constraint, DTWResult, band_frames, dtw, dtw_features, make_band
+from splicer.align import dtw as dtw_module
+from splicer.align.dtw import Band, Constraint, DTWResult, band_frames, dtw, dtw_features, make_band
 from splicer.errors import BandError, ConstraintError, SplicerError
 
 

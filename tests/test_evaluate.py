@@ -7,11 +7,11 @@ import pandas as pd
 import pytest
 
 from conftest import SHARED_SKIP_REASON
-from splicer.baselines import generic_dtw_frames, uniform_frames
-from splicer.evaluate import METHODS, METRICS, evaluate, main, summarize, to_markdown
-from splicer.roles import find_roles
-from splicer.separate import separate
-from splicer.synth import make_gesture_take
+from splicer.evaluation.baselines import generic_dtw_frames, uniform_frames
+from splicer.evaluation.evaluate import METHODS, METRICS, evaluate, main, summarize, to_markdown
+from splicer.rig.roles import find_roles
+from splicer.evaluation.separate import separate
+from splicer.evaluation.synth import make_gesture_take
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +69,7 @@ def test_full_method_beats_uniform_scaling(table):
 
 
 def test_uncovered_frames_are_scored_with_the_nearest_covered_frame():
-    from splicer.evaluate import _alignment_scores
+    from splicer.evaluation.evaluate import _alignment_scores
 
     truth = np.arange(10, dtype=np.float64) * 2.0  # hands frame 2i for body frame i
     hf = truth.copy()
@@ -115,7 +115,7 @@ def test_inputs_unchanged(short_take):
 
 
 def test_cli_falls_back_to_synthetic(tmp_path, capsys, monkeypatch):
-    import splicer.evaluate as ev
+    import splicer.evaluation.evaluate as ev
 
     monkeypatch.setattr(ev, "SHARED_ZEGGS", tmp_path / "absent")
     out = tmp_path / "acc"
@@ -139,7 +139,7 @@ def test_zeggs_one_seed(shared_motions):
     zeggs = shared_motions / "zeggs"
     if not any(zeggs.glob("*.bvh")):
         pytest.skip(SHARED_SKIP_REASON)
-    from splicer.bvh import read_bvh
+    from splicer.io.bvh import read_bvh
 
     take = read_bvh(sorted(zeggs.glob("*.bvh"))[0])
     t = summarize(evaluate([take], seeds=1, methods=("oracle", "uniform scaling", "full, smooth time map")))
@@ -149,7 +149,7 @@ def test_zeggs_one_seed(shared_motions):
 
 
 def test_cli_scenarios(tmp_path, capsys, monkeypatch):
-    import splicer.evaluate as ev
+    import splicer.evaluation.evaluate as ev
 
     monkeypatch.setattr(ev, "SHARED_ZEGGS", tmp_path / "absent")
     out = tmp_path / "sc"

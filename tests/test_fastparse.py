@@ -1,4 +1,4 @@
-"""splicer.fastparse: the compiled MOTION-block parser and formatter against float() and '%f'."""
+"""splicer.io.fastparse: the compiled MOTION-block parser and formatter against float() and '%f'."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
-from splicer.fastparse import ParseError, count_rows, format_motion_block, parse_motion_block
+from splicer.io.fastparse import ParseError, count_rows, format_motion_block, parse_motion_block
 
 _SPACE = " \t\v\f\r"
 
@@ -191,7 +191,7 @@ def motion_block_of(path):
 
 
 def test_real_files_equal_float(shared_bvh):
-    from splicer.bvh import read_bvh
+    from splicer.io.bvh import read_bvh
     from splicer.errors import SplicerWarning
 
     block, line = motion_block_of(shared_bvh)

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from splicer.gapfill import fill_gaps, missing_runs, rigid_transform
-from splicer.rotations import quat_to_matrix
-from splicer.trajectories import Trajectories
+from splicer.rig.gapfill import fill_gaps, missing_runs, rigid_transform
+from splicer.model.rotations import quat_to_matrix
+from splicer.io.trajectories import Trajectories
 
 
 def _rotations(rng, n):

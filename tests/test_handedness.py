@@ -5,15 +5,15 @@ import warnings
 import numpy as np
 import pytest
 
-from splicer.constraints import parse_config
+from splicer.io.config import parse_config
 from splicer.errors import SplicerError
-from splicer.handedness import hand_handedness, mirror_motion
-from splicer.kinematics import global_transforms
-from splicer.roles import find_roles
-from splicer.rotations import quat_angle_deg, quat_conj
-from splicer.separate import separate
+from splicer.rig.handedness import hand_handedness, mirror_motion
+from splicer.model.kinematics import global_transforms
+from splicer.rig.roles import find_roles
+from splicer.model.rotations import quat_angle_deg, quat_conj
+from splicer.evaluation.separate import separate
 from splicer import splice
-from splicer.synth import make_gesture_take
+from splicer.evaluation.synth import make_gesture_take
 
 from conftest import SHARED_MOTIONS, SHARED_SKIP_REASON
 
@@ -125,8 +125,8 @@ def test_manipnet_hands_bend_like_the_original_capture(body, side):
     """Acceptance: no more backward bending than the source read with its own (geometric) handedness."""
     if not SHARED_MOTIONS.is_dir():
         pytest.skip(SHARED_SKIP_REASON)
-    from splicer.bvh import read_bvh
-    from splicer.sanity import finger_sanity
+    from splicer.io.bvh import read_bvh
+    from splicer.transfer.sanity import finger_sanity
 
     hpath = SHARED_MOTIONS / "manipnet-hands" / f"teapot3_{side}Hand.bvh"
     with warnings.catch_warnings():
@@ -153,7 +153,7 @@ def test_manipnet_hands_bend_like_the_original_capture(body, side):
 
 
 def test_a_hand_without_an_across_the_palm_axis_is_left_undecided(sep):
-    from splicer.model import Motion, Skeleton
+    from splicer.model.motion import Motion, Skeleton
 
     hands = sep.hand_only["right"]
     arm = find_roles(hands.skeleton, source=hands.source).sides["right"]

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from splicer.handgeom import (HAND_PER_FOREARM, finger_anchors, graft_scale, hand_frame, hand_length,
+from splicer.rig.handgeom import (HAND_PER_FOREARM, finger_anchors, graft_scale, hand_frame, hand_length,
                               same_anatomical_joint)
-from splicer.markers import arm_markers
-from splicer.model import Motion, Skeleton
-from splicer.roles import ArmRoles, find_roles
-from splicer.rotations import quat_from_matrix
+from splicer.rig.markers import arm_markers
+from splicer.model.motion import Motion, Skeleton
+from splicer.rig.roles import ArmRoles, find_roles
+from splicer.model.rotations import quat_from_matrix
 
 NAN3 = (np.nan, np.nan, np.nan)
 
@@ -108,7 +108,7 @@ def test_two_axes_of_one_joint_are_recognised():
 
 
 def test_a_coarse_body_hand_follows_the_middle_finger_from_its_knuckle():
-    from splicer.transfer import finger_map
+    from splicer.transfer.fingers import finger_map
 
     body = _cmu_like()
     barm = find_roles(body).sides["right"]
@@ -123,10 +123,10 @@ def test_a_coarse_body_hand_follows_the_middle_finger_from_its_knuckle():
 def test_a_rig_with_non_parallel_rest_bones_transfers_the_same_finger_positions():
     """A hands rig whose rest bone is bent (and straightened again by constant rotations, as
     ManipNet's thumb) must drive the body's bones to the same places as a plain rig."""
-    from splicer.kinematics import global_transforms
-    from splicer.rotations import quat_conj, quat_mul, quat_rotate
+    from splicer.model.kinematics import global_transforms
+    from splicer.model.rotations import quat_conj, quat_mul, quat_rotate
     from splicer import splice
-    from splicer.synth import make_gesture_take
+    from splicer.evaluation.synth import make_gesture_take
 
     take = make_gesture_take(4.0, 30.0, np.random.default_rng(11))
     sk = take.skeleton
@@ -154,7 +154,7 @@ def test_a_rig_with_non_parallel_rest_bones_transfers_the_same_finger_positions(
 
 
 def test_a_guessed_hand_frame_is_reported():
-    from splicer.handgeom import hand_frame_warnings
+    from splicer.rig.handgeom import hand_frame_warnings
 
     sk = _cmu_like()
     arm = find_roles(sk).sides["right"]

@@ -9,18 +9,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from splicer.bvh import read_bvh, write_bvh
+from splicer.io.bvh import read_bvh, write_bvh
 from splicer.errors import SplicerError
-from splicer.evaluate import evaluate, evaluate_pair, hands_inputs
-from splicer.handonly import coincident_forearm, is_hand_only, reference_joint, root_referenced
-from splicer.kinematics import global_transforms
-from splicer.markers import arm_markers
-from splicer.roles import find_roles
-from splicer.rotations import quat_angle, quat_to_matrix
-from splicer.separate import forearm_rooted, hand_only_files, mirror_motion, separate, wrist_rooted
+from splicer.evaluation.evaluate import evaluate, evaluate_pair, hands_inputs
+from splicer.rig.handonly import coincident_forearm, is_hand_only, reference_joint, root_referenced
+from splicer.model.kinematics import global_transforms
+from splicer.rig.markers import arm_markers
+from splicer.rig.roles import find_roles
+from splicer.model.rotations import quat_angle, quat_to_matrix
+from splicer.evaluation.separate import forearm_rooted, hand_only_files, mirror_motion, separate, wrist_rooted
 from splicer import splice
-from splicer.synth import make_gesture_take
-from splicer.timewarp import sample_rotations
+from splicer.evaluation.synth import make_gesture_take
+from splicer.transfer.sampling import sample_rotations
 
 SAMPLE = Path(__file__).resolve().parents[1] / "motions"
 
@@ -99,7 +99,7 @@ def test_root_referenced_markers(hands, roles):
 
 
 def test_reference_joint_is_the_moving_root(hands, roles):
-    from splicer.model import Skeleton
+    from splicer.model.motion import Skeleton
 
     assert reference_joint(hands.skeleton, roles.sides["left"]) == 0  # Hips
     # a static 6-channel "Reference" root above the hips: the hips are the reference
@@ -130,8 +130,8 @@ def test_body_forearm_marker_for_a_wrist_rooted_file(body, hands, roles):
     wr = hand_only_files(hands, roles, "wrist")["left"]
     r = splice(body, wr)
     barm = find_roles(body.skeleton, source=body.source).sides["left"]
-    from splicer.kinematics import rest_positions
-    from splicer.rotations import quat_rotate
+    from splicer.model.kinematics import rest_positions
+    from splicer.model.rotations import quat_rotate
 
     rest = rest_positions(body.skeleton)
     back = -2.5 * (rest[barm.fingers["middle"][0]] - rest[barm.wrist])

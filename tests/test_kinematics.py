@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from splicer.bvh import read_bvh
-from splicer.kinematics import global_transforms, rest_positions
-from splicer.rotations import quat_from_euler, quat_rotate, quat_mul, euler_from_quat
+from splicer.io.bvh import read_bvh
+from splicer.model.kinematics import global_transforms, rest_positions
+from splicer.model.rotations import quat_from_euler, quat_rotate, quat_mul, euler_from_quat
 
 from conftest import DATA
 

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from splicer.constraints import parse_config
+from splicer.io.config import parse_config
 from splicer.errors import RoleError
-from splicer.marker_roles import arm_from_trajectories, detect_marker_up, find_marker_roles, marker_sides
-from splicer.trajectories import Trajectories
+from splicer.rig.marker_roles import arm_from_trajectories, detect_marker_up, find_marker_roles, marker_sides
+from splicer.io.trajectories import Trajectories
 
 
 def _traj(labels, n=6, source="m.c3d", seed=0):
@@ -78,7 +78,7 @@ def test_up_axis_from_the_trunk_and_upright():
 
 
 def test_shared_vicon_capture(shared_motions):
-    from splicer.trajectories import read_c3d
+    from splicer.io.trajectories import read_c3d
 
     t = read_c3d(shared_motions / "c3d" / "markers_analogs.c3d")
     assert (t.n_frames, t.n_markers, t.fps, t.units) == (580, 51, 100.0, "mm")
@@ -100,8 +100,8 @@ def test_shared_vicon_capture(shared_motions):
 
 
 def test_on_frames_resamples_onto_the_take(rng):
-    from splicer.marker_roles import on_frames
-    from splicer.markers import Markers
+    from splicer.rig.marker_roles import on_frames
+    from splicer.rig.markers import Markers
 
     t = np.arange(101) / 100.0  # 1 s at 100 Hz, moving at (3, -1, 2) units per second
     pts = np.stack([3 * t, -t, 2 * t], axis=1)[:, None, :] + np.zeros((1, 4, 3))

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from splicer.bvh import read_bvh
-from splicer.kinematics import global_transforms
-from splicer.markers import arm_markers
-from splicer.roles import find_roles
-from splicer.rotations import quat_mul, quat_rotate, yaw_quat_deg
+from splicer.io.bvh import read_bvh
+from splicer.model.kinematics import global_transforms
+from splicer.rig.markers import arm_markers
+from splicer.rig.roles import find_roles
+from splicer.model.rotations import quat_mul, quat_rotate, yaw_quat_deg
 
 
 def _turn_root(m, angle_deg, up=1):
@@ -19,7 +19,7 @@ def _turn_root(m, angle_deg, up=1):
 
 
 def _synthetic_take():
-    from splicer.synth import make_gesture_take
+    from splicer.evaluation.synth import make_gesture_take
 
     return make_gesture_take(4.0, 30.0, np.random.default_rng(3))
 

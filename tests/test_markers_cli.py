@@ -7,14 +7,14 @@ import pytest
 
 c3d = pytest.importorskip("c3d")
 
-from splicer.align import hold_ends  # noqa: E402
-from splicer.bvh import write_bvh  # noqa: E402
-from splicer.marker_synth import skin_markers  # noqa: E402
+from splicer.align.passes import hold_ends  # noqa: E402
+from splicer.io.bvh import write_bvh  # noqa: E402
+from splicer.evaluation.marker_synth import skin_markers  # noqa: E402
 from splicer.markers_cli import main  # noqa: E402
-from splicer.scenario_eval import ranges_mask  # noqa: E402
-from splicer.separate import separate  # noqa: E402
-from splicer.synth import make_gesture_take  # noqa: E402
-from splicer.trajectories import write_c3d  # noqa: E402
+from splicer.evaluation.scenario_eval import ranges_mask  # noqa: E402
+from splicer.evaluation.separate import separate  # noqa: E402
+from splicer.evaluation.synth import make_gesture_take  # noqa: E402
+from splicer.io.trajectories import write_c3d  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +68,7 @@ def test_splice_markers_retimes_hands_onto_the_body_timeline(session, capsys):
 
 
 def test_splice_with_hands_markers(session):
-    from splicer.evaluate import _alignment_scores
+    from splicer.evaluation.evaluate import _alignment_scores
     from splicer.pipeline import splice
 
     d, sep, hands, body = session
@@ -91,7 +91,7 @@ def test_cli_flags_pass_markers(session, tmp_path):
 
 
 def test_missing_roles_is_one_line(tmp_path, capsys):
-    from splicer.trajectories import Trajectories
+    from splicer.io.trajectories import Trajectories
 
     t = Trajectories(("A", "B"), np.ones((3, 2, 3)), 100.0)
     write_c3d(t, tmp_path / "a.c3d")
@@ -103,7 +103,7 @@ def test_missing_roles_is_one_line(tmp_path, capsys):
 def test_unsided_markers_are_not_used_for_two_sides(session):
     from dataclasses import replace
 
-    from splicer.constraints import SpliceConfig
+    from splicer.io.config import SpliceConfig
     from splicer.pipeline import splice
 
     d, sep, hands, body = session

@@ -1,11 +1,11 @@
-"""Worked answers for splicer.merge: pins on a time map, the smoothed time map, the rotation
+"""Worked answers for splicer.transfer.timemap: pins on a time map, the smoothed time map, the rotation
 median over matched frames and the blend over jumps (ALGORITHM.md section 6)."""
 
 import numpy as np
 import pytest
 
-from splicer.merge import blend_jumps, median_rotations, pin_constraints, smooth_time_map
-from splicer.rotations import quat_angle, quat_from_euler
+from splicer.transfer.timemap import blend_jumps, median_rotations, pin_constraints, smooth_time_map
+from splicer.model.rotations import quat_angle, quat_from_euler
 
 
 def _about_x(deg):

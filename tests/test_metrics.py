@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from splicer.dtw import make_band
-from splicer.markers import Markers
+from splicer.align.dtw import make_band
+from splicer.rig.markers import Markers
 from references import d1_reference, d2_reference
-from splicer.metrics import d1_cost, d2_cost, kgp_theta, palm_features, phase_features, window_points
-from splicer.rotations import quat_rotate, yaw_quat_deg
+from splicer.align.costs import d1_cost, d2_cost, kgp_theta, palm_features, phase_features, window_points
+from splicer.model.rotations import quat_rotate, yaw_quat_deg
 
 
 def _markers(rng, T, up=1, fps=30.0):

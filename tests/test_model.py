@@ -1,11 +1,11 @@
-"""Worked answers for splicer.model: the skeleton's structure and channel layout, a motion's
+"""Worked answers for splicer.model.motion: the skeleton's structure and channel layout, a motion's
 units (degrees in channels, seconds per frame) and the Euler write-back of rotations."""
 
 import numpy as np
 import pytest
 
-from splicer.model import Motion, Skeleton, preorder
-from splicer.rotations import quat_from_euler
+from splicer.model.motion import Motion, Skeleton, preorder
+from splicer.model.rotations import quat_from_euler
 
 POS = ("Xposition", "Yposition", "Zposition")
 ZXY = ("Zrotation", "Xrotation", "Yrotation")

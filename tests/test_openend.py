@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from splicer.band import Band, Constraint, full_band, make_band
-from splicer.dtw import dtw, dtw_features
+from splicer.align.band import Band, Constraint, full_band, make_band
+from splicer.align.dtw import dtw, dtw_features
 from splicer.errors import BandError, SplicerError
-from splicer.markers import Markers
+from splicer.rig.markers import Markers
 
 from test_dtw import as_callable, random_constraints, ref_mask, sqdist
 
@@ -247,7 +247,7 @@ def uncovered_cost_for(C):
     """A clean metric (squared distances of noiseless features): a true match costs ~0 while
     unrelated pairs are orders of magnitude dearer, so a low quantile suffices; a high one
     would let the path hold the first (last) hands frame over body frames beyond the take."""
-    from splicer.openend import uncovered_penalty
+    from splicer.align.openend import uncovered_penalty
     return uncovered_penalty(C.ravel(), 0.01)
 
 
@@ -319,10 +319,10 @@ SAMPLE = Path(__file__).resolve().parents[1] / "motions"
 
 @pytest.fixture(scope="module")
 def sample_markers():
-    from splicer.align import resample_markers
-    from splicer.bvh import read_bvh
-    from splicer.markers import arm_markers
-    from splicer.roles import find_roles
+    from splicer.align.passes import resample_markers
+    from splicer.io.bvh import read_bvh
+    from splicer.rig.markers import arm_markers
+    from splicer.rig.roles import find_roles
     bm, hm = read_bvh(SAMPLE / "sample_body.bvh"), read_bvh(SAMPLE / "sample_hands.bvh")
     br, hr = find_roles(bm.skeleton, source="body"), find_roles(hm.skeleton, source="hands")
     body = arm_markers(bm, br.sides["right"], br.up)
@@ -353,7 +353,7 @@ def _warp(rng, n_out, n_in):
 def test_pass1_locates_the_body_inside_a_longer_take(sample_markers, seed):
     """hands = [3 s still] + warped body + [3 s of the other arm]: the start is found within one
     frame, the time map within a couple of frames everywhere, with or without an offset guess."""
-    from splicer.align import pass1, path_median, warp_markers
+    from splicer.align.passes import pass1, path_median, warp_markers
     full, other = sample_markers
     body = _cut(full, 140, 556)                   # a span that starts and ends in motion
     n, fps = body.n_frames, body.fps
@@ -372,7 +372,7 @@ def test_pass1_locates_the_body_inside_a_longer_take(sample_markers, seed):
         err = np.abs(path_median(res.path, n) - truth)
         assert err.mean() < 1.0 and np.quantile(err, 0.95) < 4.0
         assert res.uncovered_cost > 0
-    from splicer.confidence import pass_confidence
+    from splicer.align.confidence import pass_confidence
     loc = res.located                             # the coarse locating pass, at its own rate
     assert loc.fps < fps and loc.ends == "open" and res.fps == fps
     assert pass_confidence(loc, loc.fps).confidence.shape == (loc.band.n,)
@@ -381,7 +381,7 @@ def test_pass1_locates_the_body_inside_a_longer_take(sample_markers, seed):
 
 
 def test_pass1_hands_cover_the_middle_half(sample_markers):
-    from splicer.align import pass1, warp_markers
+    from splicer.align.passes import pass1, warp_markers
     full, _ = sample_markers
     body = _cut(full, 140, 556)
     n = body.n_frames
@@ -394,7 +394,7 @@ def test_pass1_hands_cover_the_middle_half(sample_markers):
 
 def test_pass1_open_ends_hold_pins(sample_markers):
     """A pin far from the best alignment still holds, and the path covers it."""
-    from splicer.align import pass1
+    from splicer.align.passes import pass1
     full, other = sample_markers
     body = _cut(full, 140, 556)
     n = body.n_frames

@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from splicer.align import PassResult
-from splicer.band import make_band
+from splicer.align.passes import PassResult
+from splicer.align.band import make_band
 from splicer.errors import SplicerError
 from splicer.plot import band_image, plot_alignment
 

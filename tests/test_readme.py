@@ -7,7 +7,7 @@
   ``pip install``) are skipped: the tests already run inside one.  The line that runs the test
   suite is skipped (it would run this test again), and so is ``splicer-evaluate`` (minutes on
   the real capture in ../shared; benchmarks/ holds its output).
-* ```yaml blocks are constraints files: they must parse (:func:`splicer.constraints.parse_config`).
+* ```yaml blocks are constraints files: they must parse (:func:`splicer.io.config.parse_config`).
 
 A block in another language (the JSON report sketch with ``...``, the diagram) is not code.
 """
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from splicer.constraints import parse_config
+from splicer.io.config import parse_config
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"

@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from splicer.bvh import read_bvh
+from splicer.io.bvh import read_bvh
 from splicer.errors import SplicerError
-from splicer.model import Motion, Skeleton
-from splicer.repair import (EXTRAPOLATE_MAX_S, MAX_FINGER_SPEED_DEG_S, VELOCITY_BASELINE_S, Repair, hand_joints,
+from splicer.model.motion import Motion, Skeleton
+from splicer.rig.repair import (EXTRAPOLATE_MAX_S, MAX_FINGER_SPEED_DEG_S, VELOCITY_BASELINE_S, Repair, hand_joints,
                             repair_motion, repairs_summary)
-from splicer.roles import find_roles
-from splicer.rotations import quat_angle, quat_from_euler
+from splicer.rig.roles import find_roles
+from splicer.model.rotations import quat_angle, quat_from_euler
 from splicer import splice
 
 SAMPLE = Path(__file__).resolve().parents[1] / "motions"
@@ -268,7 +268,7 @@ def test_quaternion_helper_matches_euler():
 def test_cli_reports_repairs_and_no_repair_turns_them_off(hands, tmp_path, capsys):
     import json
 
-    from splicer.bvh import write_bvh
+    from splicer.io.bvh import write_bvh
     from splicer.cli import main
 
     ch = np.array(hands.channels)

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from splicer.bvh import read_bvh
+from splicer.io.bvh import read_bvh
 from splicer.errors import RoleError
-from splicer.model import Skeleton
-from splicer.roles import detect_up_axis, find_roles, joint_side
+from splicer.model.motion import Skeleton
+from splicer.rig.roles import detect_up_axis, find_roles, joint_side
 
 
 def _skeleton(spec):

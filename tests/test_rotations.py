@@ -1,11 +1,11 @@
-"""Worked answers for splicer.rotations: each function on hand-computed quaternions, and
+"""Worked answers for splicer.model.rotations: each function on hand-computed quaternions, and
 against scipy's Rotation on seeded random inputs."""
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from splicer.rotations import (euler_channels_deg, euler_from_quat, quat_angle, quat_angle_deg, quat_between,
+from splicer.model.rotations import (euler_channels_deg, euler_from_quat, quat_angle, quat_angle_deg, quat_between,
                                quat_conj, quat_from_euler, quat_from_matrix, quat_hemisphere, quat_median, quat_mul,
                                quat_normalize, quat_rotate, quat_slerp, quat_to_matrix, yaw_quat_deg)
 

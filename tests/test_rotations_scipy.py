@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from splicer.rotations import euler_from_quat, quat_angle_deg, quat_from_euler, quat_from_matrix, quat_to_matrix
+from splicer.model.rotations import euler_from_quat, quat_angle_deg, quat_from_euler, quat_from_matrix, quat_to_matrix
 
 ORDERS = ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"]
 

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from splicer.handgeom import hand_frame
-from splicer.model import Motion
-from splicer.roles import find_roles
-from splicer.sanity import finger_angles, finger_sanity, sanity_warnings
-from splicer.synth import gesture_skeleton, make_gesture_take
+from splicer.rig.handgeom import hand_frame
+from splicer.model.motion import Motion
+from splicer.rig.roles import find_roles
+from splicer.transfer.sanity import finger_angles, finger_sanity, sanity_warnings
+from splicer.evaluation.synth import gesture_skeleton, make_gesture_take
 
 
 def _about(axis, deg):

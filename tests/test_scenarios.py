@@ -1,4 +1,4 @@
-"""Scenario generators of real sessions (splicer.scenarios) and their scoring (splicer.scenario_eval)."""
+"""Scenario generators of real sessions (splicer.evaluation.scenarios) and their scoring (splicer.evaluation.scenario_eval)."""
 
 from __future__ import annotations
 
@@ -8,17 +8,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from splicer.baselines import generic_dtw_frames
+from splicer.evaluation.baselines import generic_dtw_frames
 from splicer.errors import SplicerError
-from splicer.roles import find_roles
-from splicer.rotations import quat_angle
-from splicer.scenario_eval import (SCENARIO_METHODS, alignment_scores, confidence_auc, evaluate_scenario_pair,
+from splicer.rig.roles import find_roles
+from splicer.model.rotations import quat_angle
+from splicer.evaluation.scenario_eval import (SCENARIO_METHODS, alignment_scores, confidence_auc, evaluate_scenario_pair,
                                    flag_scores, pause_scores,
                                    ranges_mask, report_flags, summarize_scenarios, uncovered_scores)
-from splicer.scenarios import (SCENARIOS, Scenario, _wrist_speed, alignment_error_s, hands_take_time, invert_time,
+from splicer.evaluation.scenarios import (SCENARIOS, Scenario, _wrist_speed, alignment_error_s, hands_take_time, invert_time,
                                make_scenario, scenario)
-from splicer.separate import finger_joints, separate
-from splicer.synth import make_gesture_take
+from splicer.evaluation.separate import finger_joints, separate
+from splicer.evaluation.synth import make_gesture_take
 
 STILL = dict(warp_speed=(1.0, 1.0))  # no re-timing: truth = 2 x body frame at 2x the rate
 
@@ -304,7 +304,7 @@ def _runs_of(frames):
 def test_report_ranges_are_scored(take, monkeypatch):
     """The real splice's result, with the ranges a future splice reports added to its report
     (uncovered: exactly the truly uncovered frames; low confidence: where its error > 0.1 s)."""
-    import splicer.scenario_eval as se
+    import splicer.evaluation.scenario_eval as se
 
     s = make_scenario(take, Scenario("t", cover=(0.6, 0.6), cover_start=0.2), rng=np.random.default_rng(3))
     real = se.splice
@@ -334,8 +334,8 @@ def test_report_ranges_are_scored(take, monkeypatch):
 
 
 def test_write_scenario_round_trip(take, tmp_path):
-    from splicer.bvh import read_bvh
-    from splicer.scenarios import write_scenario
+    from splicer.io.bvh import read_bvh
+    from splicer.evaluation.scenarios import write_scenario
 
     s = make_scenario(take, "extra+rate", rng=np.random.default_rng(0))
     body_f, hands_f, truth_f = write_scenario(s, tmp_path / "x")

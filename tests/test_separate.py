@@ -1,16 +1,16 @@
-"""Tests of the evaluation protocol (splicer.separate, ALGORITHM.md section 8)."""
+"""Tests of the evaluation protocol (splicer.evaluation.separate, ALGORITHM.md section 8)."""
 
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from splicer.kinematics import global_transforms
-from splicer.roles import find_roles
-from splicer.rotations import quat_angle_deg, quat_rotate
-from splicer.separate import finger_joints, moving_finger_joints, separate, wrist_rooted
-from splicer.synth import make_gesture_take
-from splicer.timewarp import sample_rotations
+from splicer.model.kinematics import global_transforms
+from splicer.rig.roles import find_roles
+from splicer.model.rotations import quat_angle_deg, quat_rotate
+from splicer.evaluation.separate import finger_joints, moving_finger_joints, separate, wrist_rooted
+from splicer.evaluation.synth import make_gesture_take
+from splicer.transfer.sampling import sample_rotations
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "motions"
 ZEGGS = SHARED / "zeggs" / "067_Speech_2_x_1_0.bvh"
@@ -149,7 +149,7 @@ def test_moving_finger_joints(take):
 def test_real_zeggs_take():
     if not ZEGGS.is_file():
         pytest.skip("../shared/motions not found")
-    from splicer.bvh import read_bvh
+    from splicer.io.bvh import read_bvh
 
     take = read_bvh(ZEGGS).slice(0, 450)
     s = separate(take, rng=np.random.default_rng(2))

@@ -5,16 +5,16 @@ import warnings
 import numpy as np
 import pytest
 
-from splicer.bvh import read_bvh, write_bvh
-from splicer.constraints import parse_config
+from splicer.io.bvh import read_bvh, write_bvh
+from splicer.io.config import parse_config
 from splicer.errors import ConstraintError, SplicerError
-from splicer.model import Skeleton, Motion
-from splicer.roles import find_roles
-from splicer.rotations import quat_angle, quat_mul, quat_rotate, yaw_quat_deg
-from splicer.separate import separate
+from splicer.model.motion import Skeleton, Motion
+from splicer.rig.roles import find_roles
+from splicer.model.rotations import quat_angle, quat_mul, quat_rotate, yaw_quat_deg
+from splicer.evaluation.separate import separate
 from splicer import splice
-from splicer.synth import make_gesture_take
-from splicer.timewarp import resample_motion, sample_rotations
+from splicer.evaluation.synth import make_gesture_take
+from splicer.transfer.sampling import resample_motion, sample_rotations
 
 
 @pytest.fixture(scope="module")

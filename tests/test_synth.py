@@ -1,12 +1,12 @@
-"""Tests of the procedural gesturing speaker (splicer.synth)."""
+"""Tests of the procedural gesturing speaker (splicer.evaluation.synth)."""
 
 import numpy as np
 import pytest
 
-from splicer.kinematics import global_transforms, rest_positions
-from splicer.roles import find_roles
-from splicer.rotations import quat_angle
-from splicer.synth import gesture_skeleton, make_gesture_take
+from splicer.model.kinematics import global_transforms, rest_positions
+from splicer.rig.roles import find_roles
+from splicer.model.rotations import quat_angle
+from splicer.evaluation.synth import gesture_skeleton, make_gesture_take
 
 FPS = 30.0
 

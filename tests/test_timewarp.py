@@ -1,12 +1,12 @@
-"""Known-answer tests of splicer.timewarp: fractional-frame sampling and random warps."""
+"""Known-answer tests of splicer.transfer.sampling: fractional-frame sampling and random warps."""
 
 import numpy as np
 import pytest
 
-from splicer.model import Motion, Skeleton
-from splicer.rotations import quat_angle_deg, quat_from_euler, quat_normalize
-from splicer.timewarp import resample_motion, sample_linear, sample_rotations
-from splicer.warps import smooth_monotone_warp, smooth_noise
+from splicer.model.motion import Motion, Skeleton
+from splicer.model.rotations import quat_angle_deg, quat_from_euler, quat_normalize
+from splicer.transfer.sampling import resample_motion, sample_linear, sample_rotations
+from splicer.evaluation.warps import smooth_monotone_warp, smooth_noise
 
 
 def _random_quats(rng, shape):

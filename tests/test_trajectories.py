@@ -5,7 +5,7 @@ import pytest
 
 c3d = pytest.importorskip("c3d")
 
-from splicer.trajectories import (Trajectories, TrajectoryError, read_c3d, read_csv, read_trajectories,  # noqa: E402
+from splicer.io.trajectories import (Trajectories, TrajectoryError, read_c3d, read_csv, read_trajectories,  # noqa: E402
                                   read_trc, write_c3d, write_trc)
 
 

@@ -1,4 +1,4 @@
-"""Worked answers for splicer.transfer: the rest hand frame, finger pairing, carrying rotations
+"""Worked answers for splicer.transfer.fingers: the rest hand frame, finger pairing, carrying rotations
 between axis conventions and grafting fingers onto a body without any (ALGORITHM.md section 7).
 
 The two rigs below are the same left hand in two conventions: the body's hand points along
@@ -11,11 +11,11 @@ offset (c, b, -a), and the rotation taking the hands' hand frame onto the body's
 import numpy as np
 import pytest
 
-from splicer.model import Motion, Skeleton
-from splicer.roles import ArmRoles
-from splicer.kinematics import rest_positions
-from splicer.rotations import quat_angle, quat_between, quat_from_euler, quat_to_matrix
-from splicer.transfer import carried_rotations, finger_map, graft_fingers, hand_frame
+from splicer.model.motion import Motion, Skeleton
+from splicer.rig.roles import ArmRoles
+from splicer.model.kinematics import rest_positions
+from splicer.model.rotations import quat_angle, quat_between, quat_from_euler, quat_to_matrix
+from splicer.transfer.fingers import carried_rotations, finger_map, graft_fingers, hand_frame
 
 ROT = ("Zrotation", "Xrotation", "Yrotation")
 ROOT = ("Xposition", "Yposition", "Zposition") + ROT
@@ -163,7 +163,7 @@ def test_carried_rotations_skip_C_only_below_a_millionth_of_a_degree():
     # C half a degree about Y: q -> C q C^-1, which turns each rotation's axis by 0.5 degrees
     half = quat_from_euler(np.array([0.0, 0.5, 0.0]), "XYZ")
     out = carried_rotations(q, type(fm)(fm.body, fm.hands, half))
-    from splicer.rotations import quat_conj, quat_mul
+    from splicer.model.rotations import quat_conj, quat_mul
     want = quat_mul(quat_mul(half, q[:, list(fm.body)]), quat_conj(half))
     np.testing.assert_allclose(out, want, atol=1e-15)
     assert np.abs(out - q[:, list(fm.body)]).max() > 1e-4
@@ -319,8 +319,8 @@ def test_hand_frame_with_one_finger_picks_a_perpendicular(middle, frame):
 
 @pytest.mark.parametrize("unit", [1.0, 0.01])  # centimetres, metres
 def test_segments_merge_joints_within_a_millionth_of_the_skeleton_size(unit):
-    from splicer.kinematics import rest_positions
-    from splicer.transfer import _segments
+    from splicer.model.kinematics import rest_positions
+    from splicer.transfer.fingers import _segments
 
     # root at (100, 0, 0), a finger straight down -Z: A 40 below, B eps below A, C 5 below B.
     # The skeleton's size is its largest extent along one axis: 45 (z), not the 145 between

@@ -5,16 +5,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from splicer.bvh import read_bvh
-from splicer.constraints import parse_config
-from splicer.kinematics import global_transforms
-from splicer.model import Skeleton
-from splicer.roles import detect_up_axis, find_roles
-from splicer.rotations import quat_angle_deg, quat_mul, yaw_quat_deg
-from splicer.separate import wrist_rooted
+from splicer.io.bvh import read_bvh
+from splicer.io.config import parse_config
+from splicer.model.kinematics import global_transforms
+from splicer.model.motion import Skeleton
+from splicer.rig.roles import detect_up_axis, find_roles
+from splicer.model.rotations import quat_angle_deg, quat_mul, yaw_quat_deg
+from splicer.evaluation.separate import wrist_rooted
 from splicer import splice
-from splicer.synth import make_gesture_take
-from splicer.upaxis import detect_up, restate_rest_axes
+from splicer.evaluation.synth import make_gesture_take
+from splicer.rig.upaxis import detect_up, restate_rest_axes
 
 MOTIONS = Path(__file__).resolve().parents[1] / "motions"
 Q_X90 = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0])  # +90 deg about X: Y -> Z

@@ -1,0 +1,1 @@
+"""The alignment: frame spaces, bands, the DTW engine (open ends), the two metrics, the passes, confidence."""

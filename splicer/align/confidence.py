@@ -1,0 +1,453 @@
+"""Per-frame confidence of an alignment from its cost landscape (ALGORITHM.md section 9).
+
+Forward and backward accumulated costs over the band give, for every admissible cell, the
+cost of the best path forced through it::
+
+    through[i, j] = fwd[i, j] + bwd[i, j]
+
+``fwd`` is the engine's recurrence (:mod:`splicer.dtw`, with the same start costs, step
+penalty, horizontal weight and open-begin rule): the cheapest prefix ending at ``(i, j)``,
+its own cost included; ``bwd`` is the mirror recurrence from the ends backwards (the end
+costs play the start costs' part): the cheapest suffix from ``(i, j)``, its own cost
+excluded (with the paper's recurrence, ``bwd = fwd`` on the reversed band and costs, minus
+``c[i, j]``).  ``min_j through[i, j]`` is the optimal cost for every row the
+optimal path covers.  The *excess* ``through[i, j] - optimum`` says how much worse the
+alignment becomes when row ``i`` is forced to hands frame ``j``: it rises fast away from the
+chosen cell where the row is well determined, and stays flat where it is not (a still arm,
+a pause, a repeated gesture).
+
+Per body row ``i`` (covered by the path), with ``tau`` the excess threshold:
+
+* ``near = {j : excess[i, j] <= tau}`` (always contains the path's cells of row ``i``);
+* ``spread_frames[i] = max(near) - min(near)`` (hands frames, 0 when only one cell);
+* ``est_error_s[i] = max_{j in near} |j - jc[i]| / fps``, ``jc`` the median of the path's
+  columns in that row: how far an alternative alignment almost as good as the chosen one
+  puts this frame;
+* ``confidence[i] = 1 / (1 + (est_error_s[i] / error_scale_s) ** 2)``: 1 for an exactly
+  determined frame, 0.5 at ``error_scale_s`` (default 0.1 s, the finger-to-body
+  desynchronisation viewers notice), towards 0 beyond.
+
+Rows the path leaves uncovered get ``spread_frames = est_error_s = NaN`` and
+``confidence = 0``.
+
+``tau = threshold * median(local cost along the path)``: an alternative is "almost as good"
+when it costs at most ``threshold`` typical path cells more in total.
+
+Memory: local costs, forward and backward costs as float32, 12 bytes per band cell (the
+forward and backward values are stored relative to their row minimum, so float32 keeps
+their differences to about 1e-3 of a cost unit), plus O(band) float64 rows.  Time
+O(n * band), about two DTW passes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .passes import path_median
+from .dtw import CHUNK_CELLS, Band, end_costs
+
+__all__ = ["Confidence", "row_confidence", "pass_confidence", "through_costs", "CONFIDENCE_THRESHOLD"]
+
+#: Default excess threshold, in units of the median local cost along the path.
+CONFIDENCE_THRESHOLD = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class Confidence:
+    """Per-body-frame reliability of an alignment.
+
+    Attributes
+    ----------
+    spread_frames : np.ndarray [shape=(n,), dtype=float64]
+        Range of hands frames (at the alignment's rate) whose forced-path cost is within
+        ``threshold`` of the optimum; NaN where uncovered.
+    est_error_s : np.ndarray [shape=(n,), dtype=float64]
+        Estimated alignment error, seconds; NaN where uncovered.
+    confidence : np.ndarray [shape=(n,), dtype=float64]
+        In [0, 1]; 0 where uncovered, 0.5 at ``error_scale_s``.
+    threshold : float
+        The excess threshold ``tau`` used, local-cost units.
+    error_scale_s : float
+        Seconds of estimated error at which confidence is 0.5.
+    row_excess : np.ndarray [shape=(n,), dtype=float64] or None
+        Per body frame, how much dearer the best alignment that covers it is than the
+        optimum (local-cost units; 0 on covered frames, ``+inf`` where no path reaches).
+        An uncovered frame with ``row_excess <= threshold`` could almost as well be covered:
+        after an open-ended locating pass, the overlap's place is ambiguous there
+        (:meth:`ambiguous`).
+    """
+
+    spread_frames: np.ndarray
+    est_error_s: np.ndarray
+    confidence: np.ndarray
+    threshold: float
+    error_scale_s: float
+    row_excess: np.ndarray | None = None
+
+    def ambiguous(self) -> np.ndarray:
+        """Boolean mask (n,): uncovered frames an alignment within ``threshold`` of the optimum
+        covers (an alternative place for the overlap)."""
+        if self.row_excess is None:
+            return np.zeros(self.confidence.shape, dtype=bool)
+        return ~np.isfinite(self.est_error_s) & (self.row_excess <= self.threshold)
+
+    def low(self, max_error_s: float | None = None) -> np.ndarray:
+        """Boolean mask (n,): covered frames whose estimated error exceeds ``max_error_s``
+        (default ``error_scale_s``), i.e. confidence below 0.5."""
+        lim = self.error_scale_s if max_error_s is None else max_error_s
+        e = self.est_error_s
+        return np.isfinite(e) & (e > lim)
+
+
+# ---------------------------------------------------------------- kernels (private, dumb)
+
+@njit(cache=True)
+def _store_row(cur, w, out, o, rowmin, i):
+    m = np.inf
+    for k in range(w):
+        if cur[k] < m:
+            m = cur[k]
+    rowmin[i] = m
+    for k in range(w):
+        out[o + k] = cur[k] - m if m < np.inf else np.inf
+
+
+@njit(cache=True)
+def _forward(c, lo, hi, off, sc, ob, pen, hx, out, rowmin):
+    # Forward accumulated cost, the engine's recurrence (values only): the cheapest prefix
+    # ending at (i, j), the cell's own local cost included (times 1 + hx when entered by a
+    # (i, j-1) step).  c, out: flat float32 band cells (row i at off[i] .. off[i+1]-1).
+    # sc[i]: start cost (open begin: anywhere in row 0, column 0 of row i; fixed begin: only
+    # (0, lo[0]) at 0).  ob: no step (i-1, 0) -> (i, 0) out of a cell whose best is a start.
+    # out = value - rowmin[i] (float32); rowmin[i] = the row's minimum (+inf if none finite).
+    n = lo.shape[0]
+    wmax = 0
+    for i in range(n):
+        wmax = max(wmax, hi[i] - lo[i] + 1)
+    prev = np.full(wmax, np.inf)
+    cur = np.full(wmax, np.inf)
+    pst = np.zeros(wmax, np.bool_)
+    cst = np.zeros(wmax, np.bool_)
+    for i in range(n):
+        L = lo[i]
+        w = hi[i] - L + 1
+        for k in range(w):
+            j = L + k
+            cc = np.float64(c[off[i] + k])
+            best = np.inf
+            isst = False
+            if i > 0:
+                plo = lo[i - 1]
+                phi = hi[i - 1]
+                if plo <= j - 1 <= phi:
+                    best = prev[j - 1 - plo]
+                if plo <= j <= phi and not (ob and j == 0 and pst[j - plo]):
+                    if prev[j - plo] + pen < best:
+                        best = prev[j - plo] + pen
+            if k > 0:
+                lp = cur[k - 1] + pen + (hx * cc if (hx != 0.0 and cc < np.inf) else 0.0)
+                if lp < best:
+                    best = lp
+            if (ob and (i == 0 or j == 0)) or (i == 0 and k == 0):
+                s = sc[i] if ob else 0.0
+                if s < best:
+                    best = s
+                    isst = True
+            cur[k] = cc + best
+            cst[k] = isst
+        _store_row(cur, w, out, off[i], rowmin, i)
+        for k in range(w):
+            prev[k] = cur[k]
+            pst[k] = cst[k]
+            cur[k] = np.inf
+            cst[k] = False
+
+
+@njit(cache=True)
+def _backward(c, lo, hi, off, ec, oe, pen, hx, m, out, rowmin):
+    # Backward accumulated cost: the cheapest suffix from (i, j) to an end, the cell's own
+    # local cost excluded (each later cell counts as the forward pass counts it).
+    # ec[i]: end cost (open end: anywhere in row n-1, column m-1 of row i; fixed end: only
+    # (n-1, m-1) at 0).  oe: no step (i, m-1) -> (i+1, m-1) into a cell whose best is an end
+    # (the engine cannot end on a hold of the last hands frame).
+    n = lo.shape[0]
+    wmax = 0
+    for i in range(n):
+        wmax = max(wmax, hi[i] - lo[i] + 1)
+    nxt = np.full(wmax, np.inf)
+    cur = np.full(wmax, np.inf)
+    nst = np.zeros(wmax, np.bool_)
+    cst = np.zeros(wmax, np.bool_)
+    for i in range(n - 1, -1, -1):
+        L = lo[i]
+        w = hi[i] - L + 1
+        for k in range(w - 1, -1, -1):
+            j = L + k
+            best = np.inf
+            isend = False
+            if i < n - 1:
+                nlo = lo[i + 1]
+                nhi = hi[i + 1]
+                if nlo <= j + 1 <= nhi:
+                    v = nxt[j + 1 - nlo] + np.float64(c[off[i + 1] + j + 1 - nlo])
+                    if v < best:
+                        best = v
+                if nlo <= j <= nhi and not (oe and j == m - 1 and nst[j - nlo]):
+                    v = nxt[j - nlo] + pen + np.float64(c[off[i + 1] + j - nlo])
+                    if v < best:
+                        best = v
+            if k < w - 1:
+                cc = np.float64(c[off[i] + k + 1])
+                v = cur[k + 1] + pen + cc + (hx * cc if (hx != 0.0 and cc < np.inf) else 0.0)
+                if v < best:
+                    best = v
+            if (oe and (i == n - 1 or j == m - 1)) or (i == n - 1 and j == m - 1):
+                e = ec[i] if oe else 0.0
+                if e < best:
+                    best = e
+                    isend = True
+            cur[k] = best
+            cst[k] = isend
+        _store_row(cur, w, out, off[i], rowmin, i)
+        for k in range(w):
+            nxt[k] = cur[k]
+            nst[k] = cst[k]
+            cur[k] = np.inf
+            cst[k] = False
+
+
+@njit(cache=True)
+def _row_stats(fwd, fmin, bwd, bmin, lo, hi, off, optimum, tau, jc, spread, err, exmin):
+    # Every row: exmin = min over the row's cells of excess = fwd + bwd - optimum.
+    # Covered rows (jc[i] finite): spread = max - min of columns with excess <= tau,
+    # err = max |j - jc| over them.
+    n = lo.shape[0]
+    for i in range(n):
+        m = np.inf
+        for k in range(hi[i] - lo[i] + 1):
+            b = bwd[off[i] + k]
+            f = fwd[off[i] + k]
+            if np.isfinite(b) and np.isfinite(f):
+                x = (np.float64(f) + fmin[i]) + (np.float64(b) + bmin[i]) - optimum
+                if x < m:
+                    m = x
+        exmin[i] = m
+        if not np.isfinite(jc[i]):
+            continue
+        L = lo[i]
+        w = hi[i] - L + 1
+        jmin = -1
+        jmax = -1
+        e = 0.0
+        for k in range(w):
+            b = bwd[off[i] + k]
+            f = fwd[off[i] + k]
+            if not (np.isfinite(b) and np.isfinite(f)):
+                continue
+            x = (np.float64(f) + fmin[i]) + (np.float64(b) + bmin[i]) - optimum
+            if x <= tau:
+                j = L + k
+                if jmin < 0:
+                    jmin = j
+                jmax = j
+                d = abs(j - jc[i])
+                if d > e:
+                    e = d
+        if jmin >= 0:
+            spread[i] = jmax - jmin
+            err[i] = e
+        else:                      # pragma: no cover - the path's own cells have excess ~0
+            spread[i] = 0.0
+            err[i] = 0.0
+
+
+# ---------------------------------------------------------------- public
+
+def _gather(cost, band: Band, off: np.ndarray) -> np.ndarray:
+    """Local costs of every band cell, flat float32 (row i at off[i] .. off[i+1]-1)."""
+    n = band.n
+    widths = band.hi - band.lo + 1
+    flat = np.empty(int(off[-1]), dtype=np.float32)
+    if callable(cost):
+        wmax = band.max_row_width
+        chunk = max(1, min(n, CHUNK_CELLS // wmax))
+        for i0 in range(0, n, chunk):
+            i1 = min(n, i0 + chunk)
+            block = np.asarray(cost(i0, i1))
+            if block.ndim != 2 or block.shape[0] != i1 - i0 or block.shape[1] < wmax:
+                raise ValueError(f"cost({i0}, {i1}) must return shape ({i1 - i0}, >= {wmax}), got {block.shape}")
+            mask = np.arange(block.shape[1])[None, :] < widths[i0:i1, None]
+            flat[off[i0]:off[i1]] = block[mask]
+    else:
+        c = np.asarray(cost, dtype=np.float64)
+        if c.shape != (band.n, band.m):
+            raise ValueError(f"cost matrix must have shape (n, m) = ({band.n}, {band.m}), got {c.shape}")
+        for i in range(n):
+            flat[off[i]:off[i + 1]] = c[i, band.lo[i]:band.hi[i] + 1]
+    if np.isnan(flat).any() or np.isneginf(flat).any():
+        raise ValueError("local costs contain NaN or -inf")
+    return flat
+
+
+def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end: bool | None = None,
+                  uncovered_cost: float = 0.0, step_penalty: float = 0.0, horizontal_weight: float = 1.0):
+    """Forward and backward accumulated costs over the band (see module docstring).
+
+    Parameters
+    ----------
+    cost : np.ndarray [shape=(n, m)] or callable
+        As :func:`splicer.dtw.dtw`.
+    band : Band
+    open_begin, open_end : bool, optional
+        End conditions (default: the band's ``open_begin`` / ``open_end``).
+    uncovered_cost, step_penalty, horizontal_weight : float
+        As in :func:`splicer.dtw.dtw`.
+
+    Returns
+    -------
+    through : callable ``(i) -> (columns, values)``
+        The forced-path cost of each admissible cell of row ``i`` (float64, ``+inf`` where no
+        path passes).  For tests and plots; :func:`row_confidence` does not build it.
+    parts : tuple
+        ``(c, fwd, fmin, bwd, bmin, off)``: flat float32 local, forward (relative to ``fmin``)
+        and backward (relative to ``bmin``) costs and the row offsets.
+    """
+    ob = band.open_begin if open_begin is None else bool(open_begin)
+    oe = band.open_end if open_end is None else bool(open_end)
+    sc, ec = end_costs(band, ob, oe, uncovered_cost)
+    pen = float(step_penalty)
+    if not (pen >= 0 and np.isfinite(pen)):
+        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
+    hw = float(horizontal_weight)
+    if not 0.0 < hw <= 1.0:
+        raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
+    n = band.n
+    widths = band.hi - band.lo + 1
+    off = np.zeros(n + 1, np.int64)
+    np.cumsum(widths, out=off[1:])
+    c = _gather(cost, band, off)
+    lo = np.ascontiguousarray(band.lo, np.int64)
+    hi = np.ascontiguousarray(band.hi, np.int64)
+    fwd = np.empty_like(c)
+    fmin = np.empty(n)
+    _forward(c, lo, hi, off, sc, ob, pen, hw - 1.0, fwd, fmin)
+    bwd = np.empty_like(c)
+    bmin = np.empty(n)
+    _backward(c, lo, hi, off, ec, oe, pen, hw - 1.0, band.m, bwd, bmin)
+
+    def through(i):
+        f = fwd[off[i]:off[i + 1]].astype(np.float64) + fmin[i]
+        b = bwd[off[i]:off[i + 1]].astype(np.float64) + bmin[i]
+        return np.arange(band.lo[i], band.hi[i] + 1), f + b
+
+    return through, (c, fwd, fmin, bwd, bmin, off)
+
+
+def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin: bool | None = None,
+                   open_end: bool | None = None, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
+                   horizontal_weight: float = 1.0, threshold: float = CONFIDENCE_THRESHOLD,
+                   error_scale_s: float = 0.1) -> Confidence:
+    """Per-body-frame spread, estimated error and confidence of an alignment.
+
+    Parameters
+    ----------
+    cost : np.ndarray [shape=(n, m)] or callable
+        The local costs the path was computed on, as :func:`splicer.dtw.dtw` takes them.
+    band : Band
+        The band the path was computed in.
+    path : np.ndarray [shape=(K, 2), dtype=int64]
+        The optimal path (e.g. :attr:`splicer.dtw.DTWResult.path`).
+    fps : float
+        Frame rate of the columns (hands frames at the alignment's rate), frames per second.
+    open_begin, open_end : bool, optional
+        End conditions of the alignment (default: the band's flags).
+    uncovered_cost, step_penalty, horizontal_weight : float
+        Penalties and weight the alignment used (:func:`splicer.dtw.dtw`).
+    threshold : float
+        Excess threshold in units of the median local cost along the path (> 0).
+    error_scale_s : float
+        Estimated error (seconds) at which confidence is 0.5 (> 0).
+
+    Returns
+    -------
+    Confidence
+        Arrays of shape (n,).
+
+    Notes
+    -----
+    12 bytes per band cell (float32 local, forward and backward costs) plus O(n) floats;
+    O(n * band) time.
+    """
+    if not (fps > 0 and np.isfinite(fps)):
+        raise ValueError(f"fps must be positive and finite, got {fps!r}")
+    if not (threshold > 0 and np.isfinite(threshold)):
+        raise ValueError(f"threshold must be positive and finite, got {threshold!r}")
+    if not (error_scale_s > 0 and np.isfinite(error_scale_s)):
+        raise ValueError(f"error_scale_s must be positive and finite, got {error_scale_s!r}")
+    path = np.asarray(path, dtype=np.int64)
+    if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] < 1:
+        raise ValueError(f"path must have shape (K, 2), got {path.shape}")
+    n = band.n
+    _, (c, fwd, fmin, bwd, bmin, off) = through_costs(cost, band, open_begin=open_begin, open_end=open_end,
+                                                      uncovered_cost=uncovered_cost, step_penalty=step_penalty,
+                                                      horizontal_weight=horizontal_weight)
+    # the path's own cost: local costs along it plus its uncovered rows
+    idx = off[path[:, 0]] + path[:, 1] - band.lo[path[:, 0]]
+    local = c[idx].astype(np.float64)
+    covered = (int(path[0, 0]), int(path[-1, 0]))
+    d = np.diff(path, axis=0)
+    bends = int(np.count_nonzero((d[:, 0] == 0) | (d[:, 1] == 0)))
+    weight = np.ones(len(local))
+    weight[1:][d[:, 0] == 0] = float(horizontal_weight)       # cells entered by a (i, j-1) step
+    optimum = (float(np.sum(weight * local)) + float(uncovered_cost) * (covered[0] + (n - 1 - covered[1]))
+               + float(step_penalty) * bends)
+    tau = float(threshold) * max(float(np.median(local)), 1e-12)
+    jc = path_median(path, n)
+    spread = np.full(n, np.nan)
+    err = np.full(n, np.nan)
+    exmin = np.full(n, np.inf)
+    _row_stats(fwd, fmin, bwd, bmin, np.ascontiguousarray(band.lo, np.int64),
+               np.ascontiguousarray(band.hi, np.int64), off, optimum, tau, jc, spread, err, exmin)
+    est = err / float(fps)
+    conf = np.where(np.isfinite(est), 1.0 / (1.0 + (np.nan_to_num(est) / error_scale_s) ** 2), 0.0)
+    return Confidence(spread_frames=spread, est_error_s=est, confidence=conf, threshold=tau,
+                      error_scale_s=float(error_scale_s), row_excess=np.maximum(exmin, 0.0))
+
+
+def pass_confidence(result, fps: float, **kwargs) -> Confidence:
+    """:func:`row_confidence` of a :class:`splicer.align.PassResult` (its band, path, costs, ends).
+
+    ``fps``: the rate of the pass's columns (the body rate for pass 1 and 2).  Keyword
+    arguments go to :func:`row_confidence` (``threshold``, ``error_scale_s``).  A pass with
+    fixed ends over a covered span (pass 2 after an open-ended pass 1) is measured on that
+    span; the frames outside get confidence 0 and NaN errors.
+    """
+    if result.local_cost is None:
+        raise ValueError(f"{result.name} has no local cost to measure confidence on")
+    band = result.band
+    n = band.n
+    cov = getattr(result, "covered", None) or (0, n - 1)
+    if getattr(result, "ends", "fixed") == "open" or tuple(cov) == (0, n - 1):
+        return row_confidence(lambda i0, i1: result.local_cost(band, i0, i1), band, result.path, fps,
+                              uncovered_cost=getattr(result, "uncovered_cost", 0.0),
+                              step_penalty=getattr(result, "step_penalty", 0.0),
+                              horizontal_weight=getattr(result, "horizontal_weight", 1.0), **kwargs)
+    a, b = int(cov[0]), int(cov[1])
+    # the span's own fixed-ends problem: rows a..b, columns shifted by the path's first column
+    c0 = int(result.path[0, 1])
+    sub = Band(n=b - a + 1, m=int(result.path[-1, 1]) - c0 + 1, width=band.width,
+               lo=band.lo[a:b + 1] - c0, hi=band.hi[a:b + 1] - c0)
+    conf = row_confidence(lambda i0, i1: result.local_cost(band, i0 + a, i1 + a), sub,
+                          result.path - np.array([a, c0]), fps, step_penalty=getattr(result, "step_penalty", 0.0),
+                          horizontal_weight=getattr(result, "horizontal_weight", 1.0), **kwargs)
+    def put(x, fill):
+        out = np.full(n, fill)
+        out[a:b + 1] = x
+        return out
+
+    return Confidence(spread_frames=put(conf.spread_frames, np.nan), est_error_s=put(conf.est_error_s, np.nan),
+                      confidence=put(conf.confidence, 0.0), threshold=conf.threshold,
+                      error_scale_s=conf.error_scale_s, row_excess=put(conf.row_excess, np.inf))

@@ -1,0 +1,323 @@
+"""Local costs of the two passes: the phase metric D1 and the palm metric D2.
+
+Both are computed on the fly, one chunk of band rows at a time, by private numba
+kernels; the public functions prepare per-frame features and return a callable that
+:func:`splicer.dtw.dtw` asks for rows ``i0 .. i1-1`` of the band.
+
+D1 (ALGORITHM.md section 4, paper eq. 6-7)::
+
+    D1(i, j) = sum_r || sgn(v_r,i) - sgn(R(theta_ij) v'_r,j) ||^2 + || sgn(a_r,i) - sgn(R(theta_ij) a'_r,j) ||^2
+
+with a dead zone (``|x| < eps -> 0``) whose ``eps`` is a fraction of each motion's own
+RMS speed / acceleration, and ``theta_ij`` the rotation about the up axis that best
+superimposes the 5-frame marker windows around ``i`` and ``j`` (Kovar, Gleicher & Pighin
+2002), or the difference of root headings.
+
+D2 (section 5, eq. 8-9): the angle (radians) between the body's hand vector ``h`` and the
+hands capture's ``h'`` after turning the forearm ``f'`` onto ``f``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+from ..filters import gaussian_filter1d
+
+from ..defaults import DEAD_ZONE, SMOOTH_S
+from ..rig.markers import Markers
+
+__all__ = [
+    "PhaseFeatures",
+    "phase_features",
+    "d1_cost",
+    "PalmFeatures",
+    "palm_features",
+    "d2_cost",
+    "window_points",
+    "kgp_theta",
+]
+
+WINDOW = 5  # frames in the theta window (paper: 5 frames x 4 markers = 20 positions)
+
+
+@dataclass(frozen=True, eq=False)
+class PhaseFeatures:
+    """Per-frame inputs of D1 for one motion.
+
+    Attributes
+    ----------
+    vel, acc : np.ndarray [shape=(T, 4, 3)]
+        Shoulder-relative marker velocity (units/s) and acceleration (units/s^2), smoothed.
+    eps_vel, eps_acc : float
+        Dead zones: components smaller than these count as zero.
+    window : np.ndarray [shape=(T, 2, 20)]
+        Horizontal marker coordinates (axes ``a, b`` of :func:`horizontal_axes`) of the
+        5-frame window around each frame, mean removed, for theta.
+    heading : np.ndarray [shape=(T,)]
+        Root heading, radians.
+    up : int
+    """
+
+    vel: np.ndarray
+    acc: np.ndarray
+    eps_vel: float
+    eps_acc: float
+    window: np.ndarray
+    heading: np.ndarray
+    up: int
+
+    @property
+    def n_frames(self) -> int:
+        return self.vel.shape[0]
+
+
+def horizontal_axes(up: int) -> tuple[int, int]:
+    """The two horizontal axes ``(a, b)`` for vertical axis ``up``; a turn by +theta takes a toward b."""
+    return (up + 1) % 3, (up + 2) % 3
+
+
+def window_points(points: np.ndarray, up: int, width: int = WINDOW) -> np.ndarray:
+    """Horizontal coordinates of the markers in a ``width``-frame window around each frame.
+
+    Parameters
+    ----------
+    points : np.ndarray [shape=(T, K, 3)]
+        Marker positions.
+    up : int
+        Vertical axis.
+
+    Returns
+    -------
+    np.ndarray [shape=(T, 2, width * K)]
+        Row 0: axis ``a``, row 1: axis ``b``, with the window's mean removed.  Windows are
+        clamped at the ends of the motion (repeated edge frames).
+    """
+    T, K, _ = points.shape
+    a, b = horizontal_axes(up)
+    half = width // 2
+    idx = np.clip(np.arange(T)[:, None] + np.arange(-half, half + 1)[None, :], 0, T - 1)
+    win = points[idx][..., [a, b]]  # (T, width, K, 2)
+    win = win.reshape(T, width * K, 2)
+    win = win - win.mean(axis=1, keepdims=True)
+    return np.ascontiguousarray(np.transpose(win, (0, 2, 1)))
+
+
+def kgp_theta(win_body: np.ndarray, win_hands: np.ndarray) -> float:
+    """Rotation (radians, about the up axis) that best superimposes ``win_hands`` on ``win_body``.
+
+    Both are (2, N) horizontal coordinates with the mean removed (see :func:`window_points`).
+    Closed form of Kovar, Gleicher & Pighin 2002: ``theta = atan2(sum(b a' - a b'), sum(a a' + b b'))``.
+    """
+    a, b = win_body
+    a2, b2 = win_hands
+    return float(np.arctan2(np.sum(b * a2 - a * b2), np.sum(a * a2 + b * b2)))
+
+
+def _smooth_derivatives(x: np.ndarray, fps: float, smooth_s: float) -> tuple[np.ndarray, np.ndarray]:
+    sigma = smooth_s * fps
+    xs = gaussian_filter1d(x, sigma, axis=0, mode="nearest") if sigma > 0 else x
+    vel = np.gradient(xs, axis=0) * fps if x.shape[0] > 1 else np.zeros_like(xs)
+    acc = np.gradient(vel, axis=0) * fps if x.shape[0] > 1 else np.zeros_like(xs)
+    return vel, acc
+
+
+def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE) -> PhaseFeatures:
+    """Prepare D1's inputs for one motion.
+
+    Parameters
+    ----------
+    markers : Markers
+        Virtual markers of one side, at the rate the DTW works at.
+    smooth_s : float
+        Standard deviation (seconds) of the Gaussian that smooths the shoulder-relative
+        markers before differentiating: capture noise flips signs otherwise.  Default: the
+        splice's, :data:`splicer.defaults.SMOOTH_S`.
+    dead_zone : float
+        Components below ``dead_zone`` times the motion's RMS velocity (acceleration)
+        count as zero, so a hold reads as a hold and a confined hand capture is judged on
+        the same relative scale as a free body capture.  Default: the splice's,
+        :data:`splicer.defaults.DEAD_ZONE`.
+    """
+    rel = markers.relative()
+    vel, acc = _smooth_derivatives(rel, markers.fps, smooth_s)
+    eps_v = dead_zone * float(np.sqrt(np.mean(vel**2))) if vel.size else 0.0
+    eps_a = dead_zone * float(np.sqrt(np.mean(acc**2))) if acc.size else 0.0
+    win = window_points(markers.points, markers.up)
+    return PhaseFeatures(
+        np.ascontiguousarray(vel), np.ascontiguousarray(acc), eps_v, eps_a, win,
+        np.ascontiguousarray(markers.heading, dtype=np.float64), markers.up,
+    )
+
+
+@njit(cache=True, inline="always")
+def _sgn(x, eps):
+    if x > eps:
+        return 1.0
+    if x < -eps:
+        return -1.0
+    return 0.0
+
+
+@njit(cache=True)
+def _signs(x, eps, out):
+    for t in range(x.shape[0]):
+        for m in range(x.shape[1]):
+            for k in range(x.shape[2]):
+                out[t, m, k] = _sgn(x[t, m, k], eps)
+
+
+@njit(cache=True, parallel=True)
+def _d1_rows(i0, i1, lo, hi, width, sv, sa, wb, hb, vh, ah, evh, eah, wh, hh, up, mode, out):
+    # sv, sa: body velocity / acceleration signs (T, K, 3); vh, ah: raw hands derivatives.
+    # cos/sin of theta come straight from the KGP sums: theta = atan2(num, den).
+    a = (up + 1) % 3
+    b = (up + 2) % 3
+    K = sv.shape[1]
+    N = wb.shape[2]
+    for r in prange(i1 - i0):
+        i = i0 + r
+        for c in range(hi[i] - lo[i] + 1):
+            j = lo[i] + c
+            if mode == 0:
+                num = 0.0
+                den = 0.0
+                for k in range(N):
+                    num += wb[i, 1, k] * wh[j, 0, k] - wb[i, 0, k] * wh[j, 1, k]
+                    den += wb[i, 0, k] * wh[j, 0, k] + wb[i, 1, k] * wh[j, 1, k]
+                norm = np.sqrt(num * num + den * den)
+                if norm > 0.0:
+                    cs = den / norm
+                    sn = num / norm
+                else:
+                    cs = 1.0
+                    sn = 0.0
+            else:
+                th = hb[i] - hh[j]
+                cs = np.cos(th)
+                sn = np.sin(th)
+            cost = 0.0
+            for m in range(K):
+                d = sv[i, m, up] - _sgn(vh[j, m, up], evh)
+                cost += d * d
+                d = sa[i, m, up] - _sgn(ah[j, m, up], eah)
+                cost += d * d
+                d = sv[i, m, a] - _sgn(cs * vh[j, m, a] - sn * vh[j, m, b], evh)
+                cost += d * d
+                d = sv[i, m, b] - _sgn(sn * vh[j, m, a] + cs * vh[j, m, b], evh)
+                cost += d * d
+                d = sa[i, m, a] - _sgn(cs * ah[j, m, a] - sn * ah[j, m, b], eah)
+                cost += d * d
+                d = sa[i, m, b] - _sgn(sn * ah[j, m, a] + cs * ah[j, m, b], eah)
+                cost += d * d
+            out[r, c] = cost
+        for c in range(hi[i] - lo[i] + 1, width):
+            out[r, c] = np.inf
+
+
+def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window"):
+    """A band-chunk cost callable for D1 (see :func:`splicer.dtw.dtw`).
+
+    Parameters
+    ----------
+    body, hands : PhaseFeatures
+        From :func:`phase_features`, both at the same frame rate.
+    theta : {"window", "heading"}
+        Vertical-axis alignment: per frame pair from 5-frame marker windows (the paper),
+        or the difference of root headings.
+
+    Returns
+    -------
+    callable ``(band, i0, i1) -> np.ndarray [shape=(i1 - i0, band width)]``
+    """
+    if body.up != hands.up:
+        raise ValueError("body and hands features must use the same up axis")
+    if theta not in ("window", "heading"):
+        raise ValueError(f"theta must be 'window' or 'heading', not {theta!r}")
+    mode = 0 if theta == "window" else 1
+    sv = np.empty_like(body.vel)
+    sa = np.empty_like(body.acc)
+    _signs(body.vel, body.eps_vel, sv)
+    _signs(body.acc, body.eps_acc, sa)
+
+    def cost(band, i0: int, i1: int) -> np.ndarray:
+        width = band.max_row_width  # the engine wants every chunk padded to the widest row
+        out = np.empty((i1 - i0, width))
+        _d1_rows(i0, i1, band.lo, band.hi, width, sv, sa, body.window, body.heading, hands.vel, hands.acc,
+                 hands.eps_vel, hands.eps_acc, hands.window, hands.heading, body.up, mode, out)
+        return out
+
+    return cost
+
+
+@dataclass(frozen=True, eq=False)
+class PalmFeatures:
+    """Per-frame inputs of D2: unit forearm vector ``f`` and unit hand vector ``h``, shape (T, 3)."""
+
+    forearm: np.ndarray
+    hand: np.ndarray
+
+    @property
+    def n_frames(self) -> int:
+        return self.forearm.shape[0]
+
+
+def palm_features(points: np.ndarray) -> PalmFeatures:
+    """D2's inputs from markers ``points`` (T, 4, 3): ``c = (p1 + p2) / 2``, ``f = p3 - c``, ``h = p4 - c``, normalised."""
+    c = 0.5 * (points[:, 0] + points[:, 1])
+    f = points[:, 2] - c
+    h = points[:, 3] - c
+    f = f / np.maximum(np.linalg.norm(f, axis=-1, keepdims=True), 1e-12)
+    h = h / np.maximum(np.linalg.norm(h, axis=-1, keepdims=True), 1e-12)
+    return PalmFeatures(np.ascontiguousarray(f), np.ascontiguousarray(h))
+
+
+@njit(cache=True, inline="always")
+def _palm_angle(f0, f1, f2, h0, h1, h2, g0, g1, g2, k0, k1, k2):
+    # turn (g, k) (hands forearm, hand) so that g lands on f, then the angle between h and k
+    c = g0 * f0 + g1 * f1 + g2 * f2
+    v0 = g1 * f2 - g2 * f1
+    v1 = g2 * f0 - g0 * f2
+    v2 = g0 * f1 - g1 * f0
+    if c < -1.0 + 1e-9:
+        c = -1.0 + 1e-9
+    s = 1.0 / (1.0 + c)
+    # Rodrigues for the smallest rotation: R k = k c + v x k + v (v . k) / (1 + c)
+    vk = v0 * k0 + v1 * k1 + v2 * k2
+    r0 = k0 * c + (v1 * k2 - v2 * k1) + v0 * vk * s
+    r1 = k1 * c + (v2 * k0 - v0 * k2) + v1 * vk * s
+    r2 = k2 * c + (v0 * k1 - v1 * k0) + v2 * vk * s
+    n = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    if n < 1e-12:
+        return 0.0
+    cosang = (h0 * r0 + h1 * r1 + h2 * r2) / n
+    if cosang > 1.0:
+        cosang = 1.0
+    if cosang < -1.0:
+        cosang = -1.0
+    return np.arccos(cosang)
+
+
+@njit(cache=True, parallel=True)
+def _d2_rows(i0, i1, lo, hi, width, fb, hb, fh, hh, out):
+    for r in prange(i1 - i0):
+        i = i0 + r
+        for c in range(hi[i] - lo[i] + 1):
+            j = lo[i] + c
+            out[r, c] = _palm_angle(fb[i, 0], fb[i, 1], fb[i, 2], hb[i, 0], hb[i, 1], hb[i, 2],
+                                    fh[j, 0], fh[j, 1], fh[j, 2], hh[j, 0], hh[j, 1], hh[j, 2])
+        for c in range(hi[i] - lo[i] + 1, width):
+            out[r, c] = np.inf
+
+
+def d2_cost(body: PalmFeatures, hands: PalmFeatures):
+    """A band-chunk cost callable for D2 (radians); see :func:`d1_cost`."""
+
+    def cost(band, i0: int, i1: int) -> np.ndarray:
+        width = band.max_row_width  # the engine wants every chunk padded to the widest row
+        out = np.empty((i1 - i0, width))
+        _d2_rows(i0, i1, band.lo, band.hi, width, body.forearm, body.hand, hands.forearm, hands.hand, out)
+        return out
+
+    return cost

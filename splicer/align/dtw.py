@@ -1,0 +1,532 @@
+"""Banded dynamic time warping with a stored path (ALGORITHM.md section 2).
+
+Recurrence (0-based, path from ``(0, 0)`` to ``(n - 1, m - 1)``)::
+
+    gamma[0, 0] = c[0, 0]
+    gamma[i, j] = c[i, j] + min(gamma[i-1, j-1], gamma[i-1, j] + p, gamma[i, j-1] + p + (h - 1) c[i, j])
+
+(``p = step_penalty``, 0, and ``h = horizontal_weight``, 1, by default: the paper) over the
+admissible cells of a :class:`~splicer.band.Band`; cells outside the band are
+``+inf``.  Ties are broken deterministically: the diagonal predecessor ``(i-1, j-1)`` is
+preferred, then ``(i-1, j)``, then ``(i, j-1)`` (a later candidate wins only if it is
+strictly smaller).
+
+Open ends (beyond the paper, ALGORITHM.md section 9; off by default)::
+
+    open begin:  gamma[0, j] = c[0, j] + min(gamma[0, j-1] + p, 0)        (start at any (0, j))
+                 gamma[i, 0] = c[i, 0] + min(predecessors, u * i)         (or at any (i, 0))
+    open end:    cost = min(min_j gamma[n-1, j], min_i gamma[i, m-1] + u * (n - 1 - i))
+
+A path starting at ``(0, j)`` skips hands frames ``0..j-1`` (free: the hands take started
+earlier); one starting at ``(i, 0)`` leaves body rows ``0..i-1`` uncovered (the hands take
+started later), at ``u`` (``uncovered_cost``) each, and likewise at the end.  Body rows
+beyond the hands take are left uncovered, not held on its first or last frame: no step
+``(i-1, 0) -> (i, 0)`` leaves a start cell, and the path cannot end on column ``m - 1``
+entered by a step ``(i-1, m-1) -> (i, m-1)``.  A start wins only if strictly cheaper than every
+predecessor, an end only if strictly cheaper than every earlier one (rows, then columns,
+in increasing order).  With constraints the path must start at or before the first
+constraint's row and end at or after the last one, so every constraint is still honoured.
+
+Memory is O(n * band): one byte (uint8 step choice) per band cell, plus two rows of
+``gamma`` and, for callable costs, one chunk of local costs.  Time is O(n * band).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .band import Band, Constraint, band_frames, full_band, make_band
+from ..errors import BandError
+
+__all__ = ["Constraint", "Band", "DTWResult", "make_band", "full_band", "band_frames", "dtw", "dtw_features",
+           "end_costs"]
+
+#: float64 cells per chunk of local costs requested from a callable (32 MiB).
+CHUNK_CELLS = 1 << 22
+
+_METRICS = {"sqeuclidean": 0, "euclidean": 1}
+
+
+@dataclass(frozen=True, eq=False)
+class DTWResult:
+    """Result of a banded DTW.
+
+    Parameters
+    ----------
+    path : np.ndarray [shape=(K, 2), dtype=int64]
+        Cells ``(i, j)`` from ``(0, 0)`` to ``(n - 1, m - 1)`` (open ends: from the first
+        covered cell to the last); steps in ``{(1, 0), (0, 1), (1, 1)}``.
+    cost : float
+        Sum of local costs along the path (``gamma[n-1, m-1]``), not normalised, plus
+        ``uncovered_cost`` per uncovered body row with open ends.
+    band : Band
+        The band the alignment was computed in.
+    covered : tuple of int
+        ``(first, last)`` body rows the path covers (inclusive); ``(0, n - 1)`` with fixed
+        ends.  Rows outside are uncovered (no hands frame matches them).
+    open_begin, open_end : bool
+        The end conditions the path was computed with.
+    uncovered_cost : float
+        Penalty per uncovered body row included in ``cost``.
+    step_penalty : float
+        Penalty per non-diagonal step included in ``cost``.
+    horizontal_weight : float
+        Weight of the local cost of cells entered by a ``(i, j-1)`` step.
+    """
+
+    path: np.ndarray
+    cost: float
+    band: Band
+    covered: tuple | None = None
+    open_begin: bool = False
+    open_end: bool = False
+    uncovered_cost: float = 0.0
+    step_penalty: float = 0.0
+    horizontal_weight: float = 1.0
+
+
+# ---------------------------------------------------------------- kernels (private, dumb)
+
+@njit(cache=True)
+def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen, hx):
+    # One DP row.  crow[c0 + k]: local cost of column L + k; prev[k]: gamma of the previous
+    # row at column plo + k (columns plo..phi); writes cur[0..H-L], steps[s0 + k].
+    # Step codes: 0 diagonal, 1 from (i-1, j), 2 from (i, j-1), 3 the path starts here.
+    # Requires plo <= L <= phi + 1.
+    # sc: start cost at column 0 of this row (+inf: none; only used when L == 0).
+    # ob (open begin): no step (i-1, 0) -> (i, 0) out of a start cell (steps[p0] == 3): body
+    # rows before the first hands frame are uncovered, not held on it.
+    # pen: added to the (i-1, j) and (i, j-1) steps (0: the paper's recurrence).
+    # hx: (horizontal weight - 1); a cell entered by a (i, j-1) step costs (1 + hx) * c
+    # (hx * c is skipped when hx == 0 or c == +inf, so that +inf costs stay +inf, not NaN).
+    inf = np.inf
+    w = H - L + 1
+    d = L - plo
+    best = inf
+    s = 0
+    if d > 0:
+        best = prev[d - 1]
+    if L <= phi:
+        up = prev[d] + pen
+        if ob and L == 0 and steps[p0] == 3:
+            up = inf
+        if up < best:
+            best = up
+            s = 1
+    if L == 0 and sc < best:
+        best = sc
+        s = 3
+    cur[0] = crow[c0] + best
+    steps[s0] = s
+    kend = min(H, phi) - L
+    if kend >= 1:                         # all three predecessors exist (slices: no wraparound)
+        dg = prev[d:d + kend]
+        up = prev[d + 1:d + 1 + kend]
+        cr = crow[c0 + 1:c0 + 1 + kend]
+        st = steps[s0 + 1:s0 + 1 + kend]
+        left = cur[0]
+        if hx == 0.0:
+            for t in range(kend):         # branch-free: selects, not jumps
+                a = dg[t]
+                u = up[t] + pen
+                su = u < a
+                best = u if su else a
+                lp = left + pen
+                sl = lp < best
+                st[t] = 2 if sl else (1 if su else 0)
+                left = cr[t] + (lp if sl else best)
+                cur[t + 1] = left
+        else:
+            for t in range(kend):
+                a = dg[t]
+                u = up[t] + pen
+                su = u < a
+                best = u if su else a
+                c = cr[t]
+                lp = left + pen + (hx * c if c < inf else 0.0)
+                sl = lp < best
+                st[t] = 2 if sl else (1 if su else 0)
+                left = c + (lp if sl else best)
+                cur[t + 1] = left
+    k = max(kend + 1, 1)
+    if k < w and L + k == phi + 1:        # diagonal and left only
+        best = prev[phi - plo]
+        s = 0
+        left = cur[k - 1] + pen + (hx * crow[c0 + k] if (hx != 0.0 and crow[c0 + k] < np.inf) else 0.0)
+        if left < best:
+            best = left
+            s = 2
+        cur[k] = crow[c0 + k] + best
+        steps[s0 + k] = s
+        k += 1
+    if k < w:                             # left only
+        cr = crow[c0 + k:c0 + w]
+        st = steps[s0 + k:s0 + w]
+        left = cur[k - 1]
+        for t in range(w - k):
+            c = cr[t]
+            left = c + (left + pen + (hx * c if (hx != 0.0 and c < inf) else 0.0))
+            cur[k + t] = left
+            st[t] = 2
+
+
+@njit(cache=True)
+def _dp_first_row(crow, c0, w, cur, steps, sc, pen, hx):
+    # Row 0: columns lo[0] .. lo[0] + w - 1.  The path starts at the first cell (fixed begin:
+    # (0, 0)) or, with sc finite (open begin), at any cell where sc is strictly below the
+    # accumulated cost from the left.
+    cur[0] = crow[c0]
+    if sc < np.inf:
+        cur[0] += sc
+    steps[0] = 3
+    for k in range(1, w):
+        left = cur[k - 1] + pen + (hx * crow[c0 + k] if (hx != 0.0 and crow[c0 + k] < np.inf) else 0.0)
+        if sc < left:
+            cur[k] = crow[c0 + k] + sc
+            steps[k] = 3
+        else:
+            cur[k] = crow[c0 + k] + left
+            steps[k] = 2
+
+
+@njit(cache=True)
+def _scan_end(cur, w, ec, i, L, best, steps, s0, last_row, m):
+    # Open end: best = [cost, row, column] of the cheapest gamma + ec so far (strictly smaller
+    # wins).  Ends: any cell of the last row, or column m - 1 of an earlier row; not on
+    # column m - 1 entered by a step (i-1, j): body rows after the last hands frame are
+    # uncovered, not held on it.
+    k0 = 0 if last_row else w - 1
+    if not last_row and L + w - 1 != m - 1:
+        return
+    for k in range(k0, w):
+        if L + k == m - 1 and steps[s0 + k] == 1:
+            continue
+        v = cur[k] + ec
+        if v < best[0]:
+            best[0] = v
+            best[1] = i
+            best[2] = L + k
+
+
+@njit(cache=True)
+def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m):
+    # Rows i0..i1-1 from cost block C (row r = i - i0); column j of row i is at C[r, j] if
+    # absolute else C[r, j - lo[i]].  rows: (2, width) gamma buffer indexed by row parity.
+    # sc[i]: start cost in row i (+inf: none; row 0 always starts); ec[i]: end cost (+inf: none).
+    for i in range(i0, i1):
+        r = i - i0
+        c0 = lo[i] if absolute else 0
+        cur = rows[i & 1]
+        if i == 0:
+            _dp_first_row(C[r], c0, hi[0] - lo[0] + 1, cur, steps, sc[0], pen, hx)
+        else:
+            _dp_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
+                    steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen, hx)
+        if ec[i] < np.inf:
+            _scan_end(cur, hi[i] - lo[i] + 1, ec[i], i, lo[i], best, steps, off[i], i == lo.shape[0] - 1,
+                      m)
+
+
+@njit(cache=True)
+def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx):
+    # Whole DP with local cost from features: X (n, d), Yt (d, m) (Y transposed);
+    # metric 0 squared Euclidean, 1 Euclidean.  Start / end costs as _dp_rows.
+    n, d = X.shape
+    for i in range(n):
+        L = lo[i]
+        w = hi[i] - L + 1
+        c = crow[:w]                      # slices keep indices non-negative: SIMD
+        c[:] = 0.0
+        for f in range(d):
+            xf = X[i, f]
+            ys = Yt[f, L:L + w]
+            for k in range(w):
+                t = xf - ys[k]
+                c[k] += t * t
+        if metric == 1:
+            for k in range(w):
+                c[k] = np.sqrt(c[k])
+        cur = rows[i & 1]
+        if i == 0:
+            _dp_first_row(crow, 0, w, cur, steps, sc[0], pen, hx)
+        else:
+            _dp_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
+                    off[i], sc[i], sc[0] < np.inf, off[i - 1], pen, hx)
+        if ec[i] < np.inf:
+            _scan_end(cur, w, ec[i], i, L, best, steps, off[i], i == n - 1, Yt.shape[1])
+
+
+@njit(cache=True)
+def _backtrack(lo, off, steps, iend, jend):
+    # Follow the step codes from (iend, jend) back to the first cell (code 3); returns (K, 2).
+    buf = np.empty((iend + jend + 1, 2), dtype=np.int64)
+    i = iend
+    j = jend
+    t = iend + jend
+    buf[t, 0] = i
+    buf[t, 1] = j
+    s = steps[off[i] + j - lo[i]]
+    while s != 3:
+        if s == 0:
+            i -= 1
+            j -= 1
+        elif s == 1:
+            i -= 1
+        else:
+            j -= 1
+        t -= 1
+        buf[t, 0] = i
+        buf[t, 1] = j
+        s = steps[off[i] + j - lo[i]]
+    return buf[t:].copy()
+
+
+# ---------------------------------------------------------------- public wrappers
+
+def _workspace(band: Band):
+    lo = np.ascontiguousarray(band.lo, dtype=np.int64)
+    hi = np.ascontiguousarray(band.hi, dtype=np.int64)
+    widths = hi - lo + 1
+    off = np.zeros(band.n + 1, dtype=np.int64)
+    np.cumsum(widths, out=off[1:])
+    wmax = int(widths.max())
+    steps = np.empty(int(off[-1]), dtype=np.uint8)
+    rows = np.full((2, wmax), np.inf)
+    return lo, hi, off, wmax, steps, rows
+
+
+def end_costs(band: Band, open_begin: bool, open_end: bool, uncovered_cost: float):
+    """Per-row start and end costs of an (open-ended) alignment over ``band``.
+
+    Parameters
+    ----------
+    band : Band
+    open_begin, open_end : bool
+        Whether the path may start on row 0 or column 0 (end on row ``n - 1`` or column
+        ``m - 1``).
+    uncovered_cost : float
+        Penalty per body row left uncovered (units of the local cost), >= 0.
+
+    Returns
+    -------
+    start, end : np.ndarray [shape=(n,), dtype=float64]
+        ``start[i] = uncovered_cost * i``: the cost of starting in row ``i`` (at column 0
+        for ``i > 0``, anywhere in row 0; open begin: rows up to the first constraint's
+        row), ``end[i] = uncovered_cost * (n - 1 - i)``: of ending in row ``i`` (at column
+        ``m - 1`` for ``i < n - 1``; open end: rows from the last constraint's row on);
+        ``+inf`` elsewhere.  Fixed begin: ``start`` is all ``+inf`` (row 0 starts at ``(0, 0)``);
+        fixed end: ``end`` is all ``+inf`` (the path ends at ``(n - 1, m - 1)``).
+
+    Raises
+    ------
+    BandError
+        A fixed end the band does not reach.
+    ValueError
+        ``uncovered_cost`` negative or not finite.
+    """
+    u = float(uncovered_cost)
+    if not (u >= 0 and np.isfinite(u)):
+        raise ValueError(f"uncovered_cost must be >= 0 and finite, got {uncovered_cost!r}")
+    n = band.n
+    if not open_begin and band.lo[0] != 0:
+        raise BandError(f"the band does not reach (0, 0) (lo[0] = {band.lo[0]}): use open_begin=True")
+    if not open_end and band.hi[-1] != band.m - 1:
+        raise BandError(f"the band does not reach (n-1, m-1) = ({n - 1}, {band.m - 1}) "
+                        f"(hi[-1] = {band.hi[-1]}): use open_end=True")
+    xs = [c.x for c in band.constraints]
+    rows = np.arange(n, dtype=np.float64)
+    start = np.full(n, np.inf)
+    end = np.full(n, np.inf)
+    if open_begin:
+        last = xs[0] if xs else n - 1         # a path must start at or before the first pin
+        start[:last + 1] = u * rows[:last + 1]
+    if open_end:
+        first = xs[-1] if xs else 0           # and end at or after the last pin
+        end[first:] = u * (n - 1 - rows[first:])
+    return start, end
+
+
+def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0, hw=1.0):
+    if open_end:
+        cost, iend, jend = float(best[0]), int(best[1]), int(best[2])
+    else:
+        cost, iend, jend = float(rows[(band.n - 1) & 1][band.hi[-1] - band.lo[-1]]), band.n - 1, band.m - 1
+    if np.isnan(cost):  # pragma: no cover - NaN costs are rejected before the DP
+        raise ValueError("DTW produced a NaN cost")
+    if not np.isfinite(cost):
+        raise BandError("no path of finite cost exists inside the band (every path crosses a "
+                        "+inf local cost)")
+    path = _backtrack(lo, off, steps, iend, jend)
+    return DTWResult(path=path, cost=cost, band=band, covered=(int(path[0, 0]), int(path[-1, 0])),
+                     open_begin=bool(open_begin), open_end=bool(open_end), uncovered_cost=float(u),
+                     step_penalty=float(pen), horizontal_weight=float(hw))
+
+
+def _penalty(step_penalty) -> float:
+    p = float(step_penalty)
+    if not (p >= 0 and np.isfinite(p)):
+        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
+    return p
+
+
+def _hweight(horizontal_weight) -> float:
+    w = float(horizontal_weight)
+    if not (0.0 < w <= 1.0):
+        raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
+    return w
+
+
+def _check_costs(block, what):
+    if np.isnan(block).any():
+        raise ValueError(f"local cost {what} contains NaN")
+    if np.isneginf(block).any():
+        raise ValueError(f"local cost {what} contains -inf")
+
+
+def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
+        uncovered_cost: float = 0.0, step_penalty: float = 0.0, horizontal_weight: float = 1.0) -> DTWResult:
+    """Banded DTW with path, on given local costs.
+
+    Parameters
+    ----------
+    cost : np.ndarray [shape=(n, m), dtype=float64] or callable
+        Either the full local-cost matrix (small problems), or a callable
+        ``cost(i0, i1) -> np.ndarray [shape=(i1 - i0, w)]`` returning the local costs of rows
+        ``i0 .. i1 - 1`` with column ``j`` of row ``i`` at position ``j - band.lo[i]``, where
+        ``w = max(band.hi - band.lo + 1)`` (entries beyond a row's width are ignored).  It is
+        called once per chunk of rows (about ``CHUNK_CELLS / w`` rows), in increasing order.
+        ``+inf`` marks a forbidden cell; NaN and ``-inf`` are errors.
+    band : Band
+        Admissible cells (see :func:`make_band`, :func:`splicer.band.full_band`).
+    open_begin : bool, default False
+        Beyond the paper (ALGORITHM.md section 9): the path may start at any admissible
+        ``(0, j)`` (hands frames before ``j`` are skipped, for free) or ``(i, 0)`` (at or
+        before the first constraint's row; body rows before ``i`` are uncovered and cost
+        ``uncovered_cost`` each) instead of ``(0, 0)``.
+    open_end : bool, default False
+        Likewise the path may end at any admissible ``(n - 1, j)`` or ``(i, m - 1)`` (at or
+        after the last constraint's row; body rows after ``i`` cost ``uncovered_cost`` each).
+    uncovered_cost : float, default 0
+        Penalty per uncovered body row, in local-cost units (>= 0); it keeps a shorter
+        overlap from winning just for being short.  Unused with fixed ends.
+    step_penalty : float, default 0
+        Beyond the paper: added to every ``(i-1, j)`` and ``(i, j-1)`` step (local-cost units,
+        >= 0), so where the costs are flat (a still arm) the path keeps the current speed
+        instead of wandering, and unrelated material is harder to fit by warping.  Included
+        in ``cost``.  0 is the paper's recurrence.
+    horizontal_weight : float, default 1
+        Beyond the paper: a cell entered by a ``(i, j-1)`` step (one more hands frame for the
+        same body row) counts this fraction of its local cost, in ``(0, 1]``.  With open ends
+        a full weight rewards a path for skipping hands material wherever the hands take is
+        slower than the body (each extra hands frame costs a whole cell); 0.3 measures better
+        (:data:`splicer.openend.OPEN_HORIZONTAL_WEIGHT`).  1 is the paper's recurrence.
+
+    Returns
+    -------
+    DTWResult
+        Optimal path (ties: diagonal, then ``(i-1, j)``, then ``(i, j-1)``, then a start)
+        and its cost.
+
+    Raises
+    ------
+    ValueError
+        Wrong cost shape, NaN or ``-inf`` costs.
+    BandError
+        No path of finite cost exists in the band, or a fixed end the band does not reach.
+
+    Notes
+    -----
+    O(n * band) time and memory: 1 byte per band cell (uint8 step choices), two rows of
+    ``gamma`` and one chunk of costs; the ``n x m`` matrix is never built by the engine.
+    Open ends add one pass over each row's cells (the cheapest end) and no memory.
+    """
+    if not isinstance(band, Band):
+        raise TypeError(f"band must be a splicer.dtw.Band, got {type(band).__name__}")
+    n, m = band.n, band.m
+    sc, ec = end_costs(band, open_begin, open_end, uncovered_cost)
+    pen = _penalty(step_penalty)
+    hx = _hweight(horizontal_weight) - 1.0
+    lo, hi, off, wmax, steps, rows = _workspace(band)
+    best = np.array([np.inf, -1.0, -1.0])
+    if callable(cost):
+        chunk = max(1, min(n, CHUNK_CELLS // wmax))
+        for i0 in range(0, n, chunk):
+            i1 = min(n, i0 + chunk)
+            block = np.asarray(cost(i0, i1))
+            if block.ndim != 2 or block.shape[0] != i1 - i0 or block.shape[1] < wmax:
+                raise ValueError(f"cost({i0}, {i1}) must return shape ({i1 - i0}, >= {wmax}), "
+                                 f"got {block.shape}")
+            block = np.ascontiguousarray(block[:, :wmax], dtype=np.float64)
+            # only the band part of each row is checked (padding is ignored)
+            mask = np.arange(wmax)[None, :] <= (hi[i0:i1] - lo[i0:i1])[:, None]
+            _check_costs(np.where(mask, block, 0.0), f"rows {i0}..{i1 - 1}")
+            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m)
+    else:
+        c = np.asarray(cost)
+        if c.shape != (n, m):
+            raise ValueError(f"cost matrix must have shape (n, m) = ({n}, {m}), got {c.shape}")
+        c = np.ascontiguousarray(c, dtype=np.float64)
+        _check_costs(c, "matrix")
+        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0)
+
+
+def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: bool = False,
+                 open_end: bool = False, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
+                 horizontal_weight: float = 1.0) -> DTWResult:
+    """Banded DTW with path, local cost computed on the fly from feature vectors.
+
+    Parameters
+    ----------
+    X : np.ndarray [shape=(n, d) or (n,), dtype=float64]
+        First (body) sequence, one feature vector per frame.
+    Y : np.ndarray [shape=(m, d) or (m,), dtype=float64]
+        Second (hands) sequence, same feature units as ``X``.
+    band : Band
+        Admissible cells, with ``band.n == n`` and ``band.m == m``.
+    metric : {"sqeuclidean", "euclidean"}
+        Local cost: squared Euclidean distance (units of X squared) or Euclidean distance.
+    open_begin, open_end, uncovered_cost, step_penalty, horizontal_weight
+        As :func:`dtw`.
+
+    Returns
+    -------
+    DTWResult
+        As :func:`dtw`; ``cost`` is the sum of local costs along the path (plus the
+        uncovered rows' penalty with open ends).
+
+    Notes
+    -----
+    One fused compiled kernel computes local costs row by row and runs the recurrence:
+    O(n * band * d) time, O(n * band) bytes for the step choices plus O(band) floats.
+    """
+    if not isinstance(band, Band):
+        raise TypeError(f"band must be a splicer.dtw.Band, got {type(band).__name__}")
+    if metric not in _METRICS:
+        raise ValueError(f"metric must be one of {sorted(_METRICS)}, got {metric!r}")
+    X = np.asarray(X, dtype=np.float64)
+    Y = np.asarray(Y, dtype=np.float64)
+    X = X[:, None] if X.ndim == 1 else X
+    Y = Y[:, None] if Y.ndim == 1 else Y
+    if X.ndim != 2 or Y.ndim != 2 or X.shape[1] != Y.shape[1]:
+        raise ValueError(f"X and Y must be (n, d) and (m, d) with the same d, got {X.shape} "
+                         f"and {Y.shape}")
+    if X.shape[0] != band.n or Y.shape[0] != band.m:
+        raise ValueError(f"band is for n={band.n}, m={band.m} but X has {X.shape[0]} frames and "
+                         f"Y has {Y.shape[0]}")
+    for name, a in (("X", X), ("Y", Y)):
+        if not np.isfinite(a).all():
+            raise ValueError(f"{name} contains NaN or inf")
+    sc, ec = end_costs(band, open_begin, open_end, uncovered_cost)
+    pen = _penalty(step_penalty)
+    hx = _hweight(horizontal_weight) - 1.0
+    Xc = np.ascontiguousarray(X)
+    Yt = np.ascontiguousarray(Y.T)
+    lo, hi, off, wmax, steps, rows = _workspace(band)
+    crow = np.empty(wmax)
+    best = np.array([np.inf, -1.0, -1.0])
+    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0)

@@ -1,0 +1,177 @@
+"""Open-ended alignment helpers (beyond the paper, ALGORITHM.md section 9).
+
+The penalty for body frames no hands material covers, and the coarse band a coarse
+open-ended pass hands to the full-rate pass.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .band import Band, _as_constraints, _trim
+from ..errors import BandError
+from .costs import PhaseFeatures, d1_cost
+
+__all__ = ["UNCOVERED_QUANTILE", "OPEN_HORIZONTAL_WEIGHT", "OPEN_COARSE_FPS", "MAX_COARSE_CELLS",
+           "uncovered_penalty", "coarse_rate", "offset_band", "d1_sample"]
+
+#: Default quantile of the local costs used as the per-row penalty of uncovered body frames.
+from ..defaults import UNCOVERED_QUANTILE  # noqa: E402  (one place of defaults)
+
+#: Default weight of a cell entered by a (i, j-1) step in an open-ended pass 1 (see
+#: :func:`splicer.dtw.dtw`): with the paper's 1, skipping hands material is cheaper than
+#: covering it wherever the hands take is slower than the body.  Measured on the zeggs take
+#: (8 separations with 2-8 s of extra material, 8 with hands covering the middle half):
+#: mean error 9.2 / 4.8 / 1.9 / 2.1 / 2.3 frames at 1 / 0.5 / 0.3 / 0.2 / 0.1.
+OPEN_HORIZONTAL_WEIGHT = 0.3
+
+#: Default rate of the open-ended locating pass, frames per second (5 fps mislocated the
+#: sample take's slow start by 15 frames on average, 10 fps by 5.6: see the README).
+OPEN_COARSE_FPS = 10.0
+
+#: Largest coarse matrix of the open-ended locating pass (cells = bytes of DTW steps): 64 Mi.
+MAX_COARSE_CELLS = 1 << 26
+
+
+def uncovered_penalty(costs, quantile: float = UNCOVERED_QUANTILE, *, max_samples: int = 1_000_000,
+                      seed: int = 0) -> float:
+    """Penalty per uncovered body frame: a low quantile of the local costs.
+
+    A body frame left uncovered costs what a matched frame costs at the ``quantile`` of all
+    local costs (mostly pairs that do not correspond), so a true match (cheaper) is covered,
+    while extra material that resembles the body no better than a typical unrelated pair
+    (dearer) is skipped.  Hands frames skipped at either end cost nothing.
+
+    Parameters
+    ----------
+    costs : np.ndarray [any shape]
+        Local costs of (a sample of) the cell pairs, e.g. a coarse full matrix; ``+inf``
+        (forbidden) cells are ignored.
+    quantile : float
+        In ``(0, 1)``.
+    max_samples : int
+        At most this many costs (a seeded random subset) enter the quantile.
+    seed : int
+        Seed of that subset (deterministic).
+
+    Returns
+    -------
+    float
+        ``>= 0``, in local-cost units per body frame.
+
+    Raises
+    ------
+    ValueError
+        ``quantile`` outside ``(0, 1)`` or no finite cost.
+    """
+    if not 0.0 < quantile < 1.0:
+        raise ValueError(f"quantile must be in (0, 1), got {quantile!r}")
+    c = np.asarray(costs, dtype=np.float64).ravel()
+    c = c[np.isfinite(c)]
+    if c.size == 0:
+        raise ValueError("no finite local cost to take the uncovered penalty from")
+    if c.size > max_samples:
+        c = np.random.default_rng(seed).choice(c, max_samples, replace=False)
+    return max(0.0, float(np.quantile(c, quantile)))
+
+
+def coarse_rate(n: int, m: int, fps: float, coarse_fps: float, max_cells: int = MAX_COARSE_CELLS) -> float:
+    """Rate of the open-ended locating pass: ``coarse_fps``, lowered so the coarse matrix fits.
+
+    Parameters
+    ----------
+    n, m : int
+        Body and hands frames at rate ``fps``.
+    fps : float
+        Common rate of both sequences, frames per second.
+    coarse_fps : float
+        Wanted coarse rate, frames per second (> 0).
+    max_cells : int
+        Cap on ``n_coarse * m_coarse``.
+
+    Returns
+    -------
+    float
+        ``min(fps, coarse_fps, fps * sqrt(max_cells / (n * m)))`` frames per second.
+    """
+    if not (coarse_fps > 0 and math.isfinite(coarse_fps)):
+        raise ValueError(f"coarse_fps must be positive and finite, got {coarse_fps!r}")
+    return float(min(fps, coarse_fps, fps * math.sqrt(max_cells / max(1.0, float(n) * float(m)))))
+
+
+def offset_band(n: int, m: int, offset: float, width: float, constraints=()) -> Band:
+    """An open-ended band around the line ``j = i + offset`` (same rate on both axes).
+
+    Parameters
+    ----------
+    n, m : int
+        Body and hands frames (>= 1).
+    offset : float
+        Hands frame matching body frame 0 (may be negative or beyond ``m``).
+    width : float
+        Perpendicular width in body frames: the band admits ``|j - i - offset| <= width / sqrt(2)``.
+    constraints : sequence of Constraint
+        Each constraint's row is clipped to its window.
+
+    Returns
+    -------
+    Band
+        ``open_begin`` and ``open_end`` set.  Rows where the line lies outside the hands take
+        keep one cell at the nearest edge (a path through them would cover nothing real).
+
+    Raises
+    ------
+    BandError
+        The line does not meet the hands take at all, or a constraint lies outside the band.
+    """
+    if not (width > 0 and math.isfinite(width)):
+        raise BandError(f"band width must be positive and finite, got {width!r} frames")
+    delta = width / math.sqrt(2.0)
+    i = np.arange(n, dtype=np.float64)
+    if offset + (n - 1) + delta < 0 or offset - delta > m - 1:
+        raise BandError(f"the offset {offset:g} frames puts the whole body outside the hands take "
+                        f"(0..{m - 1} frames, band half-width {delta:g})")
+    lo = np.clip(np.ceil(i + offset - delta - 1e-9), 0, m - 1).astype(np.int64)
+    hi = np.clip(np.floor(i + offset + delta + 1e-9), 0, m - 1).astype(np.int64)
+    cons = _as_constraints(constraints, n, m)
+    for c in cons:
+        if c.y + c.tolerance < lo[c.x] or c.y - c.tolerance > hi[c.x]:
+            raise BandError(f"constraint (x={c.x}, y={c.y}, T={c.tolerance}) lies outside the band around "
+                            f"the offset {offset:g} frames; widen the band or check the offset")
+        lo[c.x] = max(lo[c.x], c.y - c.tolerance)
+        hi[c.x] = min(hi[c.x], c.y + c.tolerance)
+    lo, hi = _trim(lo, hi)
+    return Band(n=n, m=m, width=float(width), lo=lo, hi=hi, constraints=cons, open_begin=True, open_end=True)
+
+
+def d1_sample(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window", rows: int = 200,
+              cols: int = 2000, seed: int = 0) -> np.ndarray:
+    """D1 on a seeded random sample of (body frame, hands frame) pairs, for :func:`uncovered_penalty`.
+
+    Parameters
+    ----------
+    body, hands : PhaseFeatures
+        As :func:`splicer.metrics.d1_cost`.
+    rows, cols : int
+        At most this many body and hands frames (sampled without replacement; all if fewer).
+    theta : {"window", "heading"}
+    seed : int
+
+    Returns
+    -------
+    np.ndarray [shape=(r, c), dtype=float64]
+        D1 of every sampled pair.  O(rows * cols) time and memory.
+    """
+    rng = np.random.default_rng(seed)
+
+    def pick(f: PhaseFeatures, k):
+        t = f.n_frames
+        idx = np.sort(rng.choice(t, k, replace=False)) if t > k else np.arange(t)
+        return PhaseFeatures(f.vel[idx], f.acc[idx], f.eps_vel, f.eps_acc, f.window[idx], f.heading[idx], f.up)
+
+    b, h = pick(body, rows), pick(hands, cols)
+    band = Band(n=b.n_frames, m=h.n_frames, width=math.inf, lo=np.zeros(b.n_frames, np.int64),
+                hi=np.full(b.n_frames, h.n_frames - 1, np.int64))
+    return d1_cost(b, h, theta=theta)(band, 0, b.n_frames)

@@ -1,0 +1,480 @@
+"""The two alignment passes and their composition (ALGORITHM.md sections 4-5).
+
+Sequences: the body markers (``n`` frames at the body rate) and the hands markers brought
+to the body rate (``m`` frames).  Paths are (K, 2) arrays of (body frame, hands frame)
+at that common rate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from ..filters import gaussian_filter1d
+
+from .band import _trim, full_band
+from ..defaults import DEAD_ZONE, SMOOTH_S
+from .dtw import Band, Constraint, DTWResult, dtw, make_band
+from ..errors import BandError
+from ..rig.markers import Markers
+from .costs import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
+from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT, UNCOVERED_QUANTILE, coarse_rate,
+                      d1_sample, offset_band, uncovered_penalty)
+from ..transfer.sampling import sample_linear
+
+__all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
+           "remap_constraints", "warp_markers", "hold_ends"]
+
+
+@dataclass(frozen=True, eq=False)
+class PassResult:
+    """One DTW pass.
+
+    Attributes
+    ----------
+    path : np.ndarray [shape=(K, 2), dtype=int64]
+        (body frame, second-sequence frame) pairs, monotone.
+    cost : float
+        Total local cost along the path (D1: squared sign differences; D2: radians).
+    band : Band
+        The admissible region, for plotting.
+    name : str
+    local_cost : callable or None
+        ``(band, i0, i1) -> band rows of local costs``, for plots and :mod:`splicer.confidence`.
+    covered : tuple of int or None
+        ``(first, last)`` body frame the path covers (inclusive); the whole body with fixed
+        ends.  Frames outside have no hands material (open ends).
+    uncovered_cost : float
+        Penalty per uncovered body frame the pass used (0 with fixed ends), local-cost units.
+    ends : {"fixed", "open"}
+        ``"fixed"``: the path runs from the first to the last covered row with fixed ends
+        there (the whole body, or pass 2's ``covered`` span); ``"open"``: open-ended.
+    step_penalty : float
+        Penalty per non-diagonal step the pass used (0: the paper).
+    horizontal_weight : float
+        Weight of cells entered by a ``(i, j-1)`` step the pass used (1: the paper).
+    located : PassResult or None
+        Open ends: the coarse locating pass (its band is the whole coarse matrix, or the band
+        around ``offset_s``), at ``located.fps``: ``pass_confidence(located, located.fps)``
+        measures how unique the located overlap is.
+    fps : float or None
+        Frame rate of the pass's sequences, when recorded.
+    """
+
+    path: np.ndarray
+    cost: float
+    band: Band
+    name: str
+    local_cost: object = None  # callable (band, i0, i1) -> band rows of local costs, for plots
+    covered: tuple | None = None
+    uncovered_cost: float = 0.0
+    ends: str = "fixed"
+    step_penalty: float = 0.0
+    horizontal_weight: float = 1.0
+    located: object = None
+    fps: float | None = None
+
+    def __repr__(self) -> str:
+        return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
+
+
+def resample_markers(markers: Markers, fps: float) -> Markers:
+    """Markers brought to ``fps`` frames per second (linear in time; Gaussian anti-aliasing when
+    the rate goes down).  Frame ``k`` of the result is at ``k / fps`` seconds."""
+    if abs(fps - markers.fps) < 1e-9 * fps:
+        return markers
+    ratio = markers.fps / fps  # source frames per target frame
+    if ratio > 1:
+        sigma = 0.5 * ratio
+        markers = Markers(*(gaussian_filter1d(a, sigma, axis=0, mode="nearest")
+                            for a in (markers.points, markers.shoulder, markers.heading)),
+                          markers.up, markers.fps, markers.side)
+    m = int(np.floor((markers.n_frames - 1) / ratio + 1e-9)) + 1
+    return warp_markers(markers, np.arange(m) * ratio, fps=fps)
+
+
+def _run(cost, band: Band, progress=None, **ends) -> DTWResult:
+    """The DTW over ``band`` with a band-chunk cost; ``progress(fraction)`` after each chunk of rows.
+    ``ends``: :func:`splicer.dtw.dtw`'s ``open_begin``, ``open_end``, ``uncovered_cost``."""
+    if progress is None:
+        return dtw(lambda i0, i1: cost(band, i0, i1), band, **ends)
+
+    def chunk(i0, i1):
+        out = cost(band, i0, i1)
+        progress(i1 / band.n)
+        return out
+
+    return dtw(chunk, band, **ends)
+
+
+def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: float, constraints=(), *,
+                open_begin: bool = False, open_end: bool = False) -> Band:
+    """A band of width ``width`` (body frames) that follows a coarse path instead of the diagonal.
+
+    Each coarse cell ``(I, J)`` stands for the fine cells around ``(I * factor, J * factor)``; the
+    band is the union of those blocks along the coarse path, widened by the half-width
+    ``Delta = W * sqrt(1 + s^2) / 2`` (``s = m / n``), clipped to every constraint's window and
+    trimmed to cells that lie on a path.  O(n) memory.
+
+    With fixed ends the band reaches ``(0, 0)`` and ``(n - 1, m - 1)``.  With open ends
+    (a coarse path from an open-ended pass, which may start after coarse row 0 or end before
+    the last) it does not have to: coarse rows before the path's first cell take its first
+    column, rows after its last cell its last column, so the fine pass can still move the
+    start and end by a coarse frame or more, and leave the rest uncovered.
+
+    Raises
+    ------
+    BandError
+        When the result cannot connect (e.g. the coarse path misses a constraint window).
+    """
+    I, J = coarse_path[:, 0], coarse_path[:, 1]
+    nc = int(I.max()) + 1
+    if open_begin or open_end:                        # the coarse path may stop short of the last row
+        nc = max(nc, int(np.rint((n - 1) / factor)) + 1)
+    jmin = np.full(nc, np.iinfo(np.int64).max)
+    jmax = np.full(nc, -1)
+    np.minimum.at(jmin, I, J)
+    np.maximum.at(jmax, I, J)
+    i0, i1 = int(I.min()), int(I.max())
+    jmin[:i0], jmax[:i0] = J[0], J[0]                 # rows the coarse path leaves uncovered
+    jmin[i1 + 1:], jmax[i1 + 1:] = J[-1], J[-1]
+    ci = np.clip(np.rint(np.arange(n) / factor).astype(np.int64), 0, nc - 1)
+    # neighbouring coarse rows too, so blocks of consecutive rows overlap
+    lo_c = np.minimum(jmin[ci], jmin[np.maximum(ci - 1, 0)])
+    hi_c = np.maximum(jmax[ci], jmax[np.minimum(ci + 1, nc - 1)])
+    delta = width * np.sqrt(1.0 + (m / n) ** 2) / 2.0
+    lo = np.floor(lo_c * factor - factor - delta).astype(np.int64)
+    hi = np.ceil(hi_c * factor + factor + delta).astype(np.int64)
+    lo = np.clip(lo, 0, m - 1)
+    hi = np.clip(hi, 0, m - 1)
+    if not open_begin:
+        lo[0] = 0
+    if not open_end:
+        hi[-1] = m - 1
+    for c in constraints:
+        lo[c.x] = max(lo[c.x], c.y - c.tolerance)
+        hi[c.x] = min(hi[c.x], c.y + c.tolerance)
+    lo, hi = _trim(lo, hi)
+    return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints), open_begin=open_begin,
+                open_end=open_end)
+
+
+def _coarse_constraints(constraints, factor, nc, mc):
+    out = []
+    for c in constraints:
+        x, y = int(round(c.x / factor)), int(round(c.y / factor))
+        if 0 < x < nc - 1 and 0 < y < mc - 1 and (not out or (x > out[-1].x and y > out[-1].y)):
+            out.append(Constraint(x, y, int(np.ceil(c.tolerance / factor)) + 1))
+    return out
+
+
+def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = SMOOTH_S,
+          dead_zone: float = DEAD_ZONE, theta: str = "window", coarse_fps: float | None = None,
+          coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
+          uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
+          max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
+          horizontal_weight: float | None = None) -> PassResult:
+    """Pass 1: banded DTW with the phase metric D1.
+
+    Parameters
+    ----------
+    body, hands : Markers
+        One side's markers, at the same frame rate (see :func:`resample_markers`).
+    width : float
+        Band width W in body frames.
+    constraints : sequence of Constraint
+        In the frames of these two sequences.
+    smooth_s, dead_zone, theta
+        See :func:`splicer.metrics.phase_features` and :func:`splicer.metrics.d1_cost`.
+    progress : callable, optional
+        ``progress(fraction)`` as the rows are done.
+    coarse_fps : float, optional
+        Beyond the paper, for long takes: first align both sequences brought down to this
+        rate, in a band of ``coarse_width`` body frames (at the full rate) around the
+        diagonal, then run the full-rate pass in a band of ``width`` around that coarse path
+        (:func:`guided_band`).  A performance that drifts far from uniform timing over many
+        minutes stays inside the band.  None: the band follows the diagonal (the paper).
+        With ``ends="open"``: the rate of the locating pass (default
+        :data:`splicer.openend.OPEN_COARSE_FPS`, 10 fps, lowered for long takes to fit
+        ``max_coarse_cells``).
+    ends : {"fixed", "open"}
+        ``"fixed"`` (the paper): the path runs from ``(0, 0)`` to ``(n - 1, m - 1)``.
+        ``"open"`` (ALGORITHM.md section 9): the body's span may lie anywhere in the hands
+        take and either may cover only part of the other.  A coarse pass at ``coarse_fps``
+        (lowered so that the coarse matrix has at most ``max_coarse_cells`` cells), open at
+        both ends over the whole hands take (or, with ``offset_s``, over a band of
+        ``coarse_width`` body frames around that offset), locates the overlap; the full-rate
+        pass runs open-ended in a band of ``width`` around the located coarse path.  Body
+        frames outside ``result.covered`` have no hands material.
+    offset_s : float, optional
+        Open ends only: a starting guess (e.g. from timecode): body frame 0 shows the same
+        instant as hands time ``offset_s`` seconds (may be negative: the hands take starts
+        later).  The coarse pass then searches a band of ``coarse_width`` body frames
+        (default 30 s) around ``j = i + offset`` instead of the whole take.
+    uncovered_quantile : float
+        Open ends: the per-frame penalty for uncovered body frames is this quantile of D1
+        over a sample of all frame pairs (:func:`splicer.openend.uncovered_penalty`).
+    uncovered_cost : float, optional
+        Open ends: the penalty itself (D1 units per body frame), overriding the quantile.
+    max_coarse_cells : int
+        Open ends: cap on the coarse matrix (1 byte of DTW steps per cell).
+    step_penalty : float
+        Beyond the paper: D1 units added to every non-diagonal step, in every DTW of the pass
+        (:func:`splicer.dtw.dtw`); 0 is the paper's recurrence.
+    horizontal_weight : float, optional
+        Weight of the local cost of a cell entered by a ``(i, j-1)`` step (one more hands
+        frame on the same body frame), in ``(0, 1]``.  Default: 1 (the paper) with fixed
+        ends, :data:`OPEN_HORIZONTAL_WEIGHT` with open ends, where a full weight makes a path
+        that skips hands material cheaper than one that covers it.
+
+    Returns
+    -------
+    PassResult
+        With ``covered``, the first and last body frame the path covers (the whole body with
+        fixed ends), and ``uncovered_cost``.
+    """
+    if ends not in ("fixed", "open"):
+        raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
+    if ends == "open":
+        return _pass1_open(body, hands, width=width, constraints=constraints, smooth_s=smooth_s,
+                           dead_zone=dead_zone, theta=theta,
+                           coarse_fps=OPEN_COARSE_FPS if coarse_fps is None else coarse_fps,
+                           coarse_width=coarse_width, progress=progress, offset_s=offset_s,
+                           uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
+                           max_coarse_cells=max_coarse_cells, step_penalty=step_penalty,
+                           horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight)
+    hw = 1.0 if horizontal_weight is None else float(horizontal_weight)
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
+    n, m = body.n_frames, hands.n_frames
+    if coarse_fps is not None and coarse_fps < body.fps:
+        factor = body.fps / coarse_fps
+        cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
+        ccons = _coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)
+        cw = (coarse_width if coarse_width is not None else width) / factor
+        coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta,
+                       step_penalty=step_penalty, horizontal_weight=hw)
+        try:
+            band = guided_band(coarse.path, factor, n, m, width, constraints)
+        except BandError:
+            band = make_band(n, m, width, constraints)  # the coarse path missed a window: the paper's band
+    else:
+        band = make_band(n, m, width, constraints)
+    d1 = d1_cost(fb, fh, theta=theta)
+    res = _run(d1, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw)
+
+
+def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, coarse_fps, coarse_width, progress,
+                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight):
+    n, m = body.n_frames, hands.n_frames
+    cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
+    factor = body.fps / cfps
+    if factor > 1.0 + 1e-9:
+        cb, ch = resample_markers(body, cfps), resample_markers(hands, cfps)
+    else:
+        factor, cb, ch = 1.0, body, hands
+    nc, mc = cb.n_frames, ch.n_frames
+    ccons = _coarse_constraints(constraints, factor, nc, mc) if factor > 1.0 else list(constraints)
+    fcb = phase_features(cb, smooth_s=smooth_s, dead_zone=dead_zone)
+    fch = phase_features(ch, smooth_s=smooth_s, dead_zone=dead_zone)
+    d1c = d1_cost(fcb, fch, theta=theta)
+    u = uncovered_cost
+    if u is None:
+        u = uncovered_penalty(d1_sample(fcb, fch, theta=theta), uncovered_quantile)
+    if offset_s is None:
+        cband = full_band(nc, mc, ccons)
+    else:
+        cw = (coarse_width if coarse_width is not None else 30.0 * body.fps) / factor
+        cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
+    coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u,
+                 step_penalty=step_penalty, horizontal_weight=horizontal_weight)
+    located = PassResult(coarse.path, coarse.cost, cband, "pass1 (locating)", d1c, coarse.covered, float(u), "open",
+                         step_penalty, float(horizontal_weight), None, cfps)
+    if progress is not None:
+        progress(0.0)
+    if factor > 1.0:
+        try:
+            band = guided_band(coarse.path, factor, n, m, width, constraints, open_begin=True, open_end=True)
+        except BandError:  # the coarse path missed a constraint window: search the whole take at full rate
+            if n * m > 4 * max_coarse_cells:
+                raise BandError(f"the located overlap misses a constraint window and the full {n} x {m} frame "
+                                f"matrix is too large to search; widen the band (now {width:g} frames) or check "
+                                f"the constraints") from None
+            band = full_band(n, m, constraints)
+    else:
+        band = cband
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
+    d1 = d1_cost(fb, fh, theta=theta)
+    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
+               horizontal_weight=horizontal_weight)
+    return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
+                      float(horizontal_weight), located, body.fps)
+
+
+def path_median(path: np.ndarray, n: int) -> np.ndarray:
+    """For each first-sequence frame 0..n-1, the median of the second-sequence frames matched to it.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,), dtype=float64]
+        Non-decreasing over the frames the path covers; halves where a frame matches an even
+        number of frames.  NaN for frames the path does not cover (open ends).
+    """
+    i, j = path[:, 0], path[:, 1]
+    rows = np.arange(n)
+    # the frames matched to row r are contiguous along a monotone path
+    starts = np.searchsorted(i, rows, side="left")
+    ends = np.searchsorted(i, rows, side="right") - 1
+    on = ends >= starts
+    out = np.full(n, np.nan)
+    s, e = starts[on], ends[on]
+    out[on] = 0.5 * (j[s + (e - s) // 2] + j[s + (e - s + 1) // 2])
+    return out
+
+
+def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):
+    """D2 + ``d1_weight`` * D1 / 24 + ``weight`` radians per band width of departure from the diagonal.
+
+    D1 / 24 is 1 when half of the 24 sign components disagree (D1 ranges 0..96)."""
+
+    def cost(band, i0, i1):
+        out = d2(band, i0, i1)
+        if d1 is not None and d1_weight > 0:
+            out = out + (d1_weight / 24.0) * d1(band, i0, i1)
+        if weight > 0:
+            rows = np.arange(i0, i1)
+            cols = band.lo[i0:i1, None] + np.arange(out.shape[1])[None, :]
+            centre = rows * ((band.m - 1) / max(band.n - 1, 1))
+            out = out + weight * np.abs(cols - centre[:, None]) / n_band_scale
+        return out
+
+    return cost
+
+
+def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
+          diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = SMOOTH_S,
+          dead_zone: float = DEAD_ZONE, theta: str = "window", progress=None, covered=None) -> PassResult:
+    """Pass 2: banded DTW with the palm metric D2 between the body and the pass-1-warped hands.
+
+    Parameters
+    ----------
+    body : Markers
+    hands_warped : Markers
+        Hands markers sampled at the pass-1 time map, one per body frame (or, for pass 2
+        alone, the hands at the body rate).
+    width : float
+        Band width W in body frames (the paper: 10% of the body length).
+    constraints : sequence of Constraint
+        In (body frame, warped frame) coordinates.
+    diagonal_weight : float
+        0 is the paper's literal pass 2.  A positive weight adds that many radians per
+        band width of departure from the diagonal (the pass-1 warp): D2 alone is small next
+        to capture noise between neighbouring frames and the path wanders.
+    d1_weight : float
+        Weight of the phase metric D1 (normalised by 24) added to D2, so D2 refines within
+        phases instead of overriding them; 0 is the paper's pass 2.
+    smooth_s, dead_zone, theta
+        D1's settings, as in :func:`pass1`.
+    progress : callable, optional
+        ``progress(fraction)`` as the rows are done.
+    covered : (int, int), optional
+        After an open-ended pass 1: the first and last body frame it covers.  Pass 2 then
+        aligns only those frames (fixed ends on that span; ``hands_warped`` must still have
+        one frame per body frame, any values outside the span, e.g. :func:`hold_ends`); the
+        result's band spans every body row (rows outside the span get the span's first or
+        last interval, ``open_begin``/``open_end`` set, for plots) and its path runs from
+        ``(first, first)`` to ``(last, last)``-ish.  Constraints outside the span are dropped.
+    """
+    fb: PalmFeatures = palm_features(body.points)
+    fh: PalmFeatures = palm_features(hands_warped.points)
+    d1 = None
+    if d1_weight > 0:
+        d1 = d1_cost(phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone),
+                     phase_features(hands_warped, smooth_s=smooth_s, dead_zone=dead_zone), theta=theta)
+    n = body.n_frames
+    cost = _pass2_cost(d2_cost(fb, fh), d1, max(width, 1.0), diagonal_weight, d1_weight)
+    if covered is not None and tuple(covered) != (0, n - 1):
+        return _pass2_span(cost, n, hands_warped.n_frames, width, constraints, covered, progress)
+    band = make_band(body.n_frames, hands_warped.n_frames, width, constraints)
+    res = _run(cost, band, progress)
+    return PassResult(res.path, res.cost, band, "pass2", cost, res.covered, 0.0)
+
+
+def _pass2_span(cost, n, m, width, constraints, covered, progress) -> PassResult:
+    """Pass 2 over body frames ``a..b`` only (fixed ends there), reported on the full body rows."""
+    a, b = int(covered[0]), int(covered[1])
+    if m != n:
+        raise ValueError(f"pass 2 over a covered span needs the warped hands at the body frames ({n}), got {m}")
+    if not 0 <= a <= b <= n - 1:
+        raise ValueError(f"covered span {covered} is outside the body frames 0..{n - 1}")
+    k = b - a + 1
+    sub_cons = [Constraint(c.x - a, c.y - a, c.tolerance) for c in constraints
+                if 0 < c.x - a < k - 1 and 0 < c.y - a < k - 1]
+    sub = make_band(k, k, width, sub_cons)
+    lo = np.concatenate([np.full(a, sub.lo[0] + a), sub.lo + a, np.full(n - 1 - b, sub.lo[-1] + a)])
+    hi = np.concatenate([np.full(a, sub.hi[0] + a), sub.hi + a, np.full(n - 1 - b, sub.hi[-1] + a)])
+    full = Band(n=n, m=m, width=width, lo=lo, hi=hi,
+                constraints=tuple(Constraint(c.x + a, c.y + a, c.tolerance) for c in sub_cons),
+                open_begin=True, open_end=True)
+
+    def chunk(i0, i1):
+        out = cost(full, i0 + a, i1 + a)       # rows a.. of the full band = the span's band, shifted
+        if progress is not None:
+            progress(i1 / k)
+        return out
+
+    res = dtw(chunk, sub)
+    return PassResult(res.path + a, res.cost, full, "pass2", cost, (a, b), 0.0, "fixed")
+
+
+def hold_ends(values: np.ndarray) -> np.ndarray:
+    """``values`` (n,) with NaN outside the covered span (:func:`path_median` after open ends)
+    replaced by the first / last finite value; a copy.  Raises ValueError when none is finite."""
+    v = np.array(values, dtype=np.float64)
+    ok = np.flatnonzero(np.isfinite(v))
+    if ok.size == 0:
+        raise ValueError("no covered frame")
+    v[:ok[0]] = v[ok[0]]
+    v[ok[-1] + 1:] = v[ok[-1]]
+    return v
+
+
+def warp_markers(markers: Markers, frames: np.ndarray, *, fps: float | None = None) -> Markers:
+    """Markers sampled at fractional ``frames`` (linear), e.g. the hands on the body timeline.
+
+    ``fps`` is the rate of the result (the input's by default)."""
+    return Markers(sample_linear(markers.points, frames), sample_linear(markers.shoulder, frames),
+                   sample_linear(markers.heading, frames), markers.up, markers.fps if fps is None else fps,
+                   markers.side)
+
+
+def compose(map1: np.ndarray, path2: np.ndarray, n: int) -> np.ndarray:
+    """Compose pass 2's path (body frame -> warped frame) with pass 1's map (warped frame -> hands frame).
+
+    Parameters
+    ----------
+    map1 : np.ndarray [shape=(n,)]
+        Hands frame (common rate) of each warped frame, non-decreasing.
+    path2 : np.ndarray [shape=(K, 2)]
+    n : int
+        Body frames.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,)]
+        Hands frame (common rate) for each body frame.
+    """
+    k = path_median(path2, n)
+    return np.interp(k, np.arange(len(map1)), map1)
+
+
+def remap_constraints(constraints, map1: np.ndarray) -> list[Constraint]:
+    """Constraints from (body, hands) frames to (body, warped) frames through pass 1's map."""
+    out = []
+    idx = np.arange(len(map1), dtype=np.float64)
+    for c in constraints:
+        k = int(round(float(np.interp(c.y, map1, idx))))
+        out.append(Constraint(c.x, k, c.tolerance))
+    return out

@@ -1,0 +1,1 @@
+"""Ground-truth evaluation and synthetic data (never imported by the runtime)."""

@@ -1,0 +1,176 @@
+"""Virtual markers (ALGORITHM.md section 1): four per side and frame, in world coordinates.
+
+* ``p1``, ``p2``: the wrist joint offset by plus/minus half the wrist width along the
+  radial-ulnar axis (pinky base -> index base; thumb base when the index is missing);
+  the width is the distance between those bases.
+* ``p3``: the midpoint of elbow and wrist.  A wrist-rooted hand file has no elbow: its
+  forearm is taken as continuing straight back from the hand (the rest-pose direction
+  middle base -> wrist, turned with the wrist), 2.5 hand lengths long.
+* ``p4``: the base of the middle finger, else the centroid of the finger bases.
+* the shoulder ``s``: the upper-arm joint; the origin in hand-only files (a hand capture
+  volume keeps the arm nearly still).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import RoleError
+from ..model.kinematics import global_transforms, rest_positions
+from ..model.motion import Motion
+from .handgeom import HAND_PER_FOREARM, finger_anchors
+from .roles import ArmRoles
+from ..model.rotations import quat_rotate
+
+__all__ = ["Markers", "arm_markers", "root_heading"]
+
+FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
+
+
+@dataclass(frozen=True, eq=False)
+class Markers:
+    """Virtual markers of one side.
+
+    Attributes
+    ----------
+    points : np.ndarray [shape=(T, 4, 3)]
+        ``p1, p2`` (wrist, radial and ulnar), ``p3`` (forearm), ``p4`` (hand), world, file units.
+    shoulder : np.ndarray [shape=(T, 3)]
+        Upper-arm joint position (zeros for hand-only files), world, file units.
+    heading : np.ndarray [shape=(T,)]
+        Heading of the root about the up axis, radians (for the trunk-heading alignment).
+    up : int
+        Vertical axis, 0/1/2.
+    fps : float
+        Frames per second.
+    side : str
+    """
+
+    points: np.ndarray
+    shoulder: np.ndarray
+    heading: np.ndarray
+    up: int
+    fps: float
+    side: str
+
+    def __post_init__(self):
+        for name in ("points", "shoulder", "heading"):
+            a = np.array(getattr(self, name), dtype=np.float64)
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+
+    @property
+    def n_frames(self) -> int:
+        return self.points.shape[0]
+
+    def relative(self) -> np.ndarray:
+        """Markers relative to the shoulder, shape (T, 4, 3)."""
+        return self.points - self.shoulder[:, None, :]
+
+
+def root_heading(motion: Motion, up: int) -> np.ndarray:
+    """Heading of the root joint about axis ``up``, radians, unwrapped, shape (T,).
+
+    Measured like :func:`splicer.metrics.horizontal_axes`' turns: from horizontal axis
+    ``a = (up + 1) % 3`` toward ``b = (up + 2) % 3``, so a right-handed turn of the motion by
+    ``+phi`` about ``up`` adds ``phi`` to the heading.
+    """
+    rot, _ = global_transforms(motion, [0])
+    a, b = (up + 1) % 3, (up + 2) % 3
+    fwd = np.zeros(3)
+    fwd[a] = 1.0
+    v = quat_rotate(rot[:, 0], fwd)
+    return np.unwrap(np.arctan2(v[:, b], v[:, a]))
+
+
+def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
+    """Virtual markers of one side of ``motion``.
+
+    Parameters
+    ----------
+    motion : Motion
+    arm : ArmRoles
+        The side's joints (see :func:`splicer.roles.find_roles`).
+    up : int
+        Vertical axis of the motion.
+
+    Returns
+    -------
+    Markers
+
+    Raises
+    ------
+    RoleError
+        When the hand has no finger joints to place the hand and wrist markers.
+    """
+    sk = motion.skeleton
+    rest = rest_positions(sk)
+    # each finger's base: its first joint away from the wrist, or its End Site (coarse rigs
+    # such as CMU put LeftFingerBase and LThumb at the wrist's place)
+    anchors = finger_anchors(sk, arm, rest)
+    bases = {f: j for f, (j, _) in anchors.items()}
+    if not bases and arm.elbow is None:
+        raise RoleError(
+            f"{motion.source or 'motion'}: the {arm.side} hand ({sk.names[arm.wrist]}) has neither finger joints "
+            "away from the wrist nor a forearm joint; the hand markers need one of them"
+        )
+    extra = [j for j in (arm.elbow, arm.upper_arm) if j is not None]
+    base_list = list(bases.values())
+    joints = [arm.wrist] + extra + base_list
+    grot, gpos = global_transforms(motion, joints)
+    w = gpos[:, 0]
+    bpos = {}
+    for k, (f, (j, off)) in enumerate(anchors.items()):
+        g = 1 + len(extra) + k
+        bpos[f] = gpos[:, g] if not np.any(off) else gpos[:, g] + quat_rotate(grot[:, g], off)
+    if not bpos:
+        # a body without finger joints: the hand continues the forearm at rest (or reaches the
+        # wrist's End Site), turned with the wrist
+        tip = sk.end_sites[arm.wrist]
+        if np.any(np.isnan(tip)):
+            tip = HAND_PER_FOREARM * (rest[arm.wrist] - rest[arm.elbow])
+        bpos["hand"] = w + quat_rotate(grot[:, 0], tip)
+
+    # hand marker
+    if "middle" in bpos or "hand" in bpos:
+        p4 = bpos.get("middle", bpos.get("hand"))
+    else:
+        p4 = np.mean(np.stack(list(bpos.values()), axis=1), axis=1)
+    # radial-ulnar axis
+    radial = bpos.get("index", bpos.get("thumb"))
+    ulnar = bpos.get("pinky", bpos.get("ring"))
+    if radial is not None and ulnar is None and radial is not p4:
+        ulnar = p4  # index or thumb against the hand's middle: still the radial side
+    if radial is None or ulnar is None:
+        # coarse rig: across the palm, perpendicular to the hand's long axis and the up axis of the wrist
+        long_axis = p4 - w
+        side_axis = quat_rotate(grot[:, 0], np.eye(3)[(up + 2) % 3])
+        across = np.cross(long_axis, side_axis)
+        n = np.linalg.norm(across, axis=-1, keepdims=True)
+        across = across / np.maximum(n, 1e-12) * 0.5 * np.linalg.norm(long_axis, axis=-1, keepdims=True)
+    else:
+        across = radial - ulnar
+    p1 = w + 0.5 * across
+    p2 = w - 0.5 * across
+
+    if arm.elbow is not None:
+        p3 = 0.5 * (w + gpos[:, 1])
+    else:
+        # no elbow position: the forearm continues straight back from the rest-pose hand,
+        # turned with the forearm joint when there is one (Leap: rForeArm at the wrist) or
+        # with the wrist (wrist-rooted files).  At rest every joint frame is the world frame.
+        f0 = "middle" if "middle" in anchors else next(iter(anchors), None)
+        hand_vec = (rest[anchors[f0][0]] + anchors[f0][1] - rest[arm.wrist]) if f0 else np.zeros(3)
+        back = -FOREARM_PER_HAND * hand_vec
+        parent = int(sk.parents[arm.wrist])
+        turn = grot[:, 0] if parent < 0 else global_transforms(motion, [parent])[0][:, 0]
+        p3 = w + 0.5 * quat_rotate(turn, back)
+
+    if arm.upper_arm is not None:
+        shoulder = gpos[:, 1 + (1 if arm.elbow is not None else 0)]
+    else:
+        shoulder = np.zeros_like(w)
+    heading = root_heading(motion, up)
+    return Markers(np.stack([p1, p2, p3, p4], axis=1), shoulder, heading, up, motion.fps, arm.side)

@@ -1,0 +1,1 @@
+"""From alignment to output: time map, merge, slerp sampling, finger transfer, finger sanity."""

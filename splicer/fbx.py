@@ -112,6 +112,43 @@ def _orthonormal(m: np.ndarray) -> np.ndarray:
     return u @ vt
 
 
+def _basis_rotation(pb) -> np.ndarray:
+    """A pose bone's own rotation channels (``matrix_basis`` rotation) as a double-precision 3x3 matrix."""
+    from .rotations import quat_from_euler, quat_normalize, quat_to_matrix
+
+    mode = pb.rotation_mode
+    if mode == "QUATERNION":
+        q = quat_normalize(np.array(pb.rotation_quaternion, dtype=np.float64))
+    elif mode == "AXIS_ANGLE":
+        ang, x, y, z = (float(v) for v in pb.rotation_axis_angle)
+        axis = np.array([x, y, z])
+        nrm = np.linalg.norm(axis)
+        axis = axis / nrm if nrm > 0 else np.array([0.0, 1.0, 0.0])
+        q = np.concatenate([[np.cos(ang / 2)], np.sin(ang / 2) * axis])
+    else:  # Blender's Euler 'XYZ' applies X first: M = Rz Ry Rx, i.e. intrinsic "ZYX" with (z, y, x)
+        e = np.degrees(np.array(pb.rotation_euler, dtype=np.float64))
+        order = mode[::-1]
+        q = quat_from_euler(e[["XYZ".index(a) for a in order]], order)
+    return quat_to_matrix(q)
+
+
+def _key_times(action) -> np.ndarray:
+    """Sorted distinct key times (scene frames) of every F-curve of ``action`` that animates a bone."""
+    out = []
+    for layer in action.layers:
+        for strip in layer.strips:
+            for bag in strip.channelbags:
+                for fc in bag.fcurves:
+                    if fc.data_path.startswith("pose.bones") and len(fc.keyframe_points):
+                        co = np.empty(2 * len(fc.keyframe_points), dtype=np.float32)
+                        fc.keyframe_points.foreach_get("co", co)
+                        out.append(co[0::2])
+    if not out:
+        return np.zeros(0)
+    t = np.unique(np.round(np.concatenate(out).astype(np.float64), 4))
+    return t
+
+
 def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) -> Motion:
     """Sample an armature object's animation into a BVH-like Motion (see the module notes).
 
@@ -119,9 +156,11 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) 
     ----------
     obj : bpy.types.Object
         An armature object (its active action is what the scene evaluates).
-    frames : sequence of int, optional
-        Scene frames to sample; default every integer frame of the object's action's frame
-        range (the scene range when it has no action).
+    frames : sequence of float, optional
+        Scene frames to sample; default the action's own key times: from its first to its
+        last bone key in steps of the median key spacing (1 for a take at the scene's rate;
+        0.5 for a 60 fps BVH imported into a 30 fps scene with "scale FPS"), the take's
+        rate being the scene's divided by that step.  Without an action: the scene range.
     source : str, optional
         Recorded as ``Motion.source`` (default the object's name).
     scene : bpy.types.Scene, optional
@@ -130,7 +169,7 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) 
     Returns
     -------
     Motion
-        ``frame_time = fps_base / fps`` of the scene; lengths in world units, file axes.
+        ``frame_time``: the take's own (see ``frames``); lengths in world units, file axes.
     """
     from .rotations import quat_from_matrix
 
@@ -147,14 +186,22 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) 
     for j, p in enumerate(parents):
         if p >= j:  # Blender lists bones depth-first; a different order would break "parents first"
             raise FBXError(f"armature {obj.name!r}: bone {bones[j].name!r} comes before its parent")
+    scene_fps = scene.render.fps / scene.render.fps_base
+    fps = scene_fps
     if frames is None:
         ad = obj.animation_data
-        if ad is not None and ad.action is not None:
-            a, b = ad.action.frame_range
-            frames = range(int(round(a)), int(round(b)) + 1)
+        times = _key_times(ad.action) if ad is not None and ad.action is not None else np.zeros(0)
+        if len(times) > 1:
+            # a take at another rate than the scene's (BVH imported with "scale FPS") has its keys every
+            # `step` scene frames: sample at its own keys, and its rate is scene_fps / step
+            step = float(np.median(np.diff(times)))
+            step = step if abs(step - round(step)) > 1e-3 else float(round(step))
+            n = int(round((times[-1] - times[0]) / step)) + 1
+            frames = times[0] + step * np.arange(n)
+            fps = scene_fps / step
         else:
             frames = range(scene.frame_start, scene.frame_end + 1)
-    frames = list(frames)
+    frames = [float(f) for f in frames]
     C = AXIS_CONVERSION
     J, T = len(bones), len(frames)
     # rest, in file axes: heads and rotations from the object's world matrix at the current frame
@@ -162,7 +209,8 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) 
     K0 = C.T @ W0[:3, :3]
     t0 = C.T @ W0[:3, 3]
     heads = np.array([K0 @ np.array(b.head_local) + t0 for b in bones])
-    rest_rot = np.array([_orthonormal(K0) @ _mat(b.matrix_local)[:3, :3] for b in bones])
+    R0 = _orthonormal(K0)
+    rest_rot = np.array([R0 @ _orthonormal(_mat(b.matrix_local)[:3, :3]) for b in bones])
     offsets = heads - np.where(parents[:, None] >= 0, heads[np.maximum(parents, 0)], 0.0)
     ends = np.full((J, 3), np.nan)
     for j, b in enumerate(bones):
@@ -172,36 +220,49 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) 
         elif not b.children:
             ends[j] = K0 @ np.array(b.tail_local) + t0 - heads[j]
     pose_bones = [obj.pose.bones[b.name] for b in bones]
+    A = np.array([_mat(b.matrix_local) for b in bones])  # rest, armature space (float32 in Blender)
+    A[:, :3, :3] = [_orthonormal(a) for a in A[:, :3, :3]]
+    local = np.empty((T, J, 3, 3))
     G = np.empty((T, J, 3, 3))
     root_pos = np.empty((T, 3))
+    basis_pos = np.empty((T, 3))
     moved = set()
     keep = scene.frame_current, scene.frame_subframe
     try:
         for t, f in enumerate(frames):
-            scene.frame_set(int(f))
+            scene.frame_set(int(np.floor(f + 1e-6)), subframe=max(0.0, f - np.floor(f + 1e-6)))
             W = _mat(obj.matrix_world)
             K = C.T @ W[:3, :3]
             R = _orthonormal(K)
             for j, pb in enumerate(pose_bones):
                 M = _mat(pb.matrix)
                 G[t, j] = R @ M[:3, :3] @ rest_rot[j].T
+                # the local rotation from the bone's own channels, in double precision: R_j = A_j B_j A_j^T
+                local[t, j] = R0 @ A[j, :3, :3] @ _basis_rotation(pb) @ A[j, :3, :3].T @ R0.T
                 if j == 0:
                     root_pos[t] = K @ M[:3, 3] + C.T @ W[:3, 3]
-                elif parents[j] >= 0 and any(abs(v) > 1e-6 for v in pb.location):
+                    basis_pos[t] = K @ (A[0, :3, 3] + A[0, :3, :3] @ np.array(pb.location, dtype=np.float64)) \
+                        + C.T @ W[:3, 3]
+                elif any(abs(v) > 1e-6 for v in pb.location):
                     moved.add(bones[j].name)
     finally:
         scene.frame_set(keep[0], subframe=keep[1])
-    local = np.empty_like(G)
+    # where constraints, drivers or unusual inheritance make the evaluated pose differ from the bones'
+    # own channels, the evaluated pose (float32 through the chain) is the truth
+    from_pose = np.empty_like(G)
     for j in range(J):
         p = parents[j]
-        local[:, j] = G[:, j] if p < 0 else np.transpose(G[:, p], (0, 2, 1)) @ G[:, j]
+        from_pose[:, j] = G[:, j] if p < 0 else np.transpose(G[:, p], (0, 2, 1)) @ G[:, j]
+    differs = np.abs(from_pose - local).max(axis=(0, 2, 3)) > 1e-4  # ~0.006 degrees
+    local[:, differs] = from_pose[:, differs]
+    if np.abs(basis_pos - root_pos).max() <= 1e-4 * max(1.0, float(np.abs(root_pos).max())) and not differs[0]:
+        root_pos = basis_pos
     q = quat_from_matrix(local)  # (T, J, 4)
     if (parents[1:] < 0).any():
         raise FBXError(f"armature {obj.name!r}: several root bones ({', '.join(bones[j].name for j in np.flatnonzero(parents < 0))}); "
                        "one skeleton needs one root")
     channels = [_ROOT_CHANNELS if j == 0 else _JOINT_CHANNELS for j in range(J)]
     sk = Skeleton(tuple(b.name for b in bones), parents, offsets, tuple(channels), ends)
-    fps = scene.render.fps / scene.render.fps_base
     m = Motion(sk, np.zeros((T, sk.n_channels)), 1.0 / fps, source or obj.name)
     m = m.with_rotations(range(J), q).with_translations(0, root_pos)
     if moved:
@@ -282,7 +343,7 @@ def new_armature(skeleton: Skeleton, name: str = "splicer", *, collection=None, 
     return obj
 
 
-def bake_action(obj, motion: Motion, *, name: str | None = None, frame_start: int = 1, joints=None):
+def bake_action(obj, motion: Motion, *, name: str | None = None, frame_start: int = 1, joints=None, action=None):
     """Key ``motion`` onto armature ``obj`` as a NEW action (assigned to it); returns the action.
 
     Parameters
@@ -296,6 +357,8 @@ def bake_action(obj, motion: Motion, *, name: str | None = None, frame_start: in
         Action name (default ``"<object>_splicer"``).
     joints : iterable of str, optional
         Joints to key (default all of the motion's that the armature has).
+    action : bpy.types.Action, optional
+        Re-key these joints in this action (already assigned to ``obj``) instead of making a new one.
 
     Notes
     -----
@@ -317,10 +380,11 @@ def bake_action(obj, motion: Motion, *, name: str | None = None, frame_start: in
     if joints is not None and missing:
         raise FBXError(f"armature {obj.name!r} has no bones {', '.join(missing[:5])}")
     want = [n for n in want if n in arm_bones]
-    action = bpy.data.actions.new(name or f"{obj.name}_splicer")
     if obj.animation_data is None:
         obj.animation_data_create()
-    obj.animation_data.action = action
+    if action is None:
+        action = bpy.data.actions.new(name or f"{obj.name}_splicer")
+        obj.animation_data.action = action
     T = motion.n_frames
     frames = np.arange(T, dtype=np.float64) + frame_start
     Rloc = quat_to_matrix(motion.rotations)  # (T, J, 3, 3), BVH-local, file axes

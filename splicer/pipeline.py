@@ -77,15 +77,15 @@ def load_inputs(body, hands, config=None, log: Log | None = None, *, body_marker
 
     ``body_markers``, ``hands_markers``: optional marker files (C3D, TRC, CSV; paths or
     :class:`~splicer.trajectories.Trajectories`) captured with each take, used for the alignment."""
-    from .bvh import read_bvh
     from .constraints import SpliceConfig, read_config
+    from .motion_io import read_motion  # BVH or FBX by suffix (issue 13)
 
     log = log or Log()
     log.progress("read", 0.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SplicerWarning)
-        bm = body if isinstance(body, Motion) else read_bvh(body)
-        hm = hands if isinstance(hands, Motion) else read_bvh(hands)
+        bm = body if isinstance(body, Motion) else read_motion(body)
+        hm = hands if isinstance(hands, Motion) else read_motion(hands)
     for w in caught:
         if issubclass(w.category, SplicerWarning):
             log.note(str(w.message))

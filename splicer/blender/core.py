@@ -2,14 +2,16 @@
 console, scripts and tests run with the ``bpy`` module in the background.
 
 Frames.  A take's **file frame** ``k`` (0-based, what splicer and the constraints file use)
-is the scene frame ``first + k``, ``first`` the first frame of the armature's action (an
-importer keys frame 0 of the file at the scene's start frame).
+is the scene frame ``first + k * step``: ``first`` the first key of the armature's action
+(an importer keys frame 0 of the file at the scene's start frame), ``step`` 1 for a take at
+the scene's rate (0.5 for a 60 fps take scaled into a 30 fps scene).
 
 Pins from timeline markers.  A marker named ``pin:<hands scene frame>`` placed at a body
-scene frame pins that body frame to that hands frame: the animator scrubs the hands
+scene frame pins that body frame to the hands frame shown at that scene frame: the animator scrubs the hands
 armature to a clear event (a clap, a tap), reads the frame number, scrubs the body to the
 same event and adds a marker there named ``pin:<that number>`` (M, then F2 to rename).
-Optional: a side, ``pin:L:<n>`` / ``pin:R:<n>`` (default both sides), and a tolerance in
+The number may have a fraction (``pin:174.5``: a 60 fps take in a 30 fps scene
+shows its odd frames between scene frames).  Optional: a side, ``pin:L:<n>`` / ``pin:R:<n>`` (default both sides), and a tolerance in
 hands frames, ``pin:<n>~<T>`` (default 2).  Other markers are ignored; a marker named
 ``pin:`` with something unreadable is an error naming it.
 
@@ -35,7 +37,7 @@ import numpy as np
 __all__ = ["package", "first_frame", "armature_motion", "markers_to_pins", "splice_armatures", "time_map_to_fcurve",
            "fcurve_to_time_map", "reapply_time_map", "report_summary", "PIN_RE", "TIMEMAP_PROP"]
 
-PIN_RE = re.compile(r"^pin:(?:(?P<side>[LRlr]):)?(?P<hands>-?\d+)(?:~(?P<tol>\d+))?$")
+PIN_RE = re.compile(r"^pin:(?:(?P<side>[LRlr]):)?(?P<hands>-?\d+(?:\.\d+)?)(?:~(?P<tol>\d+))?$")
 TIMEMAP_PROP = "splicer_timemap_{side}"
 RESULT_PROP = "splicer_result"  # on the body object: JSON of what reapply needs (hands object, options, pins)
 _RANGE_PREFIX = "splicer:"
@@ -54,14 +56,24 @@ def _sub(name: str):
     return importlib.import_module(package().__name__ + "." + name)
 
 
-def first_frame(obj) -> int:
+def first_frame(obj) -> float:
     """Scene frame of the take's file frame 0: its action's first frame (the scene start without one)."""
     import bpy
 
     ad = obj.animation_data
     if ad is not None and ad.action is not None:
-        return int(round(ad.action.frame_range[0]))
-    return int(bpy.context.scene.frame_start)
+        t = _sub("fbx")._key_times(ad.action)
+        return float(t[0]) if len(t) else float(ad.action.frame_range[0])
+    return float(bpy.context.scene.frame_start)
+
+
+def take_step(obj) -> float:
+    """Scene frames per file frame of the take on ``obj`` (1.0, or e.g. 0.5 for a 60 fps BVH
+    imported into a 30 fps scene with "scale FPS"): the median spacing of its bone keys."""
+    fbx = _sub("fbx")
+    ad = obj.animation_data
+    t = fbx._key_times(ad.action) if ad is not None and ad.action is not None else np.zeros(0)
+    return float(np.median(np.diff(t))) if len(t) > 1 else 1.0
 
 
 def armature_motion(obj, action=None):
@@ -78,15 +90,19 @@ def armature_motion(obj, action=None):
     return fbx.armature_motion(obj)
 
 
-def markers_to_pins(markers, body_first: int, hands_first: int, *, tolerance: int = 2):
+def markers_to_pins(markers, body_first: float, hands_first: float, *, tolerance: int = 2, body_step: float = 1.0,
+                    hands_step: float = 1.0):
     """Timeline markers named ``pin:...`` as a SpliceConfig's pairs (file frames), sorted by body frame.
 
     Parameters
     ----------
     markers : iterable of objects with ``.name`` and ``.frame``
         E.g. ``scene.timeline_markers``.
-    body_first, hands_first : int
+    body_first, hands_first : float
         Scene frames of each take's file frame 0 (:func:`first_frame`).
+    body_step, hands_step : float
+        Scene frames per file frame of each take (:func:`take_step`); a pin's scene frames
+        are converted to file frames, rounded.
 
     Returns
     -------
@@ -111,7 +127,7 @@ def markers_to_pins(markers, body_first: int, hands_first: int, *, tolerance: in
                 f"timeline marker {mk.name!r} at frame {mk.frame}: a pin is named pin:<hands frame>, "
                 "pin:L:<hands frame> or pin:<hands frame>~<tolerance>")
         side = {"l": "left", "r": "right", None: "both"}[m["side"].lower() if m["side"] else None]
-        found.append((int(mk.frame) - body_first, int(m["hands"]) - hands_first,
+        found.append((int(round((mk.frame - body_first) / body_step)), int(round((float(m["hands"]) - hands_first) / hands_step)),
                       None if m["tol"] is None else int(m["tol"]), side, mk.name))
     found.sort()
     pairs = tuple(constraints.PairSpec(b, h, t, s, k + 1, k) for k, (b, h, t, s, _) in enumerate(found))
@@ -119,7 +135,8 @@ def markers_to_pins(markers, body_first: int, hands_first: int, *, tolerance: in
 
 
 def _object_config(body_obj, hands_obj, scene):
-    return markers_to_pins(scene.timeline_markers, first_frame(body_obj), first_frame(hands_obj))
+    return markers_to_pins(scene.timeline_markers, first_frame(body_obj), first_frame(hands_obj),
+                           body_step=take_step(body_obj), hands_step=take_step(hands_obj))
 
 
 def time_map_to_fcurve(obj, action, side: str, time_map: np.ndarray, first: int):
@@ -265,7 +282,7 @@ def _mark_ranges(scene, report, first: int) -> None:
     for side, sr in report["sides"].items():
         for key, label in (("low_confidence", "low"), ("uncovered", "uncovered")):
             for a, b in (sr.get(key) or []):
-                scene.timeline_markers.new(f"{_RANGE_PREFIX}{side} {label} {a}-{b}", frame=int(a) + first)
+                scene.timeline_markers.new(f"{_RANGE_PREFIX}{side} {label} {a}-{b}", frame=int(round(a + first)))
 
 
 def report_summary(report) -> dict:

@@ -161,19 +161,31 @@ def test_time_map_fcurve_round_trip_and_reapply(scene):
     assert quat_angle_deg(before.rotations[:, right], after.rotations[:, right]).max() < 0.01  # right untouched
 
 
-def test_fbx_round_trip_of_the_sample(tmp_path, cli_bvh):
+@pytest.fixture(scope="module")
+def fbx_takes(tmp_path_factory):
+    """The sample takes exported to FBX by Blender, and read back."""
+    from splicer.bvh import read_bvh
+    from splicer.fbx import read_fbx, write_fbx
+
+    d = tmp_path_factory.mktemp("fbx")
+    out = {}
+    for k, path in (("body", BODY), ("hands", HANDS)):
+        write_fbx(read_bvh(path), d / f"{k}.fbx")
+        out[k] = (d / f"{k}.fbx", read_fbx(d / f"{k}.fbx"))
+    return out
+
+
+def test_fbx_round_trip_of_the_sample(tmp_path, fbx_takes):
     """Blender's exporter and importer keep the sample to float32 precision, and
     `splice body.fbx hands.fbx -o out.fbx` equals the splice of what the FBX files hold."""
     import splicer
     from splicer.bvh import read_bvh
     from splicer.cli import main
-    from splicer.fbx import read_fbx, write_fbx
+    from splicer.fbx import read_fbx
 
     body, hands = read_bvh(BODY), read_bvh(HANDS)
-    bf, hf, out = tmp_path / "body.fbx", tmp_path / "hands.fbx", tmp_path / "out.fbx"
-    write_fbx(body, bf)
-    write_fbx(hands, hf)
-    rb, rh = read_fbx(bf), read_fbx(hf)
+    (bf, rb), (hf, rh) = fbx_takes["body"], fbx_takes["hands"]
+    out = tmp_path / "out.fbx"
     for a, b in ((rb, body), (rh, hands)):
         assert a.n_frames == b.n_frames and a.frame_time == pytest.approx(b.frame_time, rel=1e-12)
         assert a.skeleton.names == b.skeleton.names
@@ -193,15 +205,11 @@ def test_fbx_round_trip_of_the_sample(tmp_path, cli_bvh):
 
 @pytest.mark.xfail(strict=True, reason="the alignment moves by up to 3 hands frames under 1e-5 degree input noise "
                    "(sign features with a dead zone); FBX keeps rotations to ~4e-4 degrees only")
-def test_fbx_splice_equals_the_bvh_splice(tmp_path, cli_bvh):
-    from splicer.bvh import read_bvh
-    from splicer.fbx import read_fbx, write_fbx
+def test_fbx_splice_equals_the_bvh_splice(fbx_takes, cli_bvh):
     from splicer.pipeline import splice
 
-    bf, hf = tmp_path / "body.fbx", tmp_path / "hands.fbx"
-    write_fbx(read_bvh(BODY), bf)
-    write_fbx(read_bvh(HANDS), hf)
-    assert _angle(splice(read_fbx(bf), read_fbx(hf), config=SYNC).motion, cli_bvh).max() < 0.01
+    got = splice(fbx_takes["body"][1], fbx_takes["hands"][1], config=SYNC).motion
+    assert _angle(got, cli_bvh).max() < 0.01
 
 
 def test_missing_bpy_is_one_line(tmp_path):

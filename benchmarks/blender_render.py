@@ -48,10 +48,11 @@ def _render(bpy, scene, obj, bone: str, frame, path: str):
     scene.frame_set(int(frame), subframe=frame - int(frame))
     pb = obj.pose.bones[bone]
     m = obj.matrix_world @ pb.matrix
-    target = m @ mathutils.Vector((0, pb.length * 1.6, 0))
+    heads = [obj.matrix_world @ q.head for q in obj.pose.bones if q.name.startswith(bone)]
+    target = sum(heads, mathutils.Vector()) / len(heads)  # the middle of the hand
     cam = scene.camera
-    side = m.to_3x3() @ mathutils.Vector((0, 0, 1))  # the palm's normal-ish: the bone's Z axis
-    cam.location = target + side.normalized() * 28 + mathutils.Vector((0, 0, 6))
+    side = m.to_3x3() @ mathutils.Vector((0, 0, 1))  # across the palm: the bone's Z axis
+    cam.location = target + side.normalized() * 26 + mathutils.Vector((0, 0, 8))
     direction = target - cam.location
     cam.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
     scene.render.filepath = path

@@ -22,7 +22,9 @@ An armature becomes a :class:`~splicer.model.Skeleton` as follows:
 * **joints** = bones, parents before children (Blender's bone order is depth-first);
   names are the bone names.  A childless bone named ``<parent>_end`` (Blender's FBX
   "leaf bones"), ``*End``/``*_Nub``/``*Nub`` (MotionBuilder, 3ds Max) is not a joint: its
-  head is its parent's **End Site**.  Any other childless bone gets its tail as End Site.
+  head is its parent's **End Site**.  Any other childless bone has no End Site when read
+  from an FBX file (FBX has no bone tails; the importer guesses them) and its tail as End
+  Site when read from an armature in a scene (Blender's BVH importer puts it there).
 * **axes and units**: coordinates are the file's own.  Blender's importers (BVH and FBX,
   default settings) convert a Y-up file to Blender's Z-up world with ``world = C @ file``,
   ``C = axis_conversion(from_forward="-Z", from_up="Y")``; we undo exactly that
@@ -149,7 +151,7 @@ def _key_times(action) -> np.ndarray:
     return t
 
 
-def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) -> Motion:
+def armature_motion(obj, *, frames=None, source: str | None = None, scene=None, leaf_tails: bool = True) -> Motion:
     """Sample an armature object's animation into a BVH-like Motion (see the module notes).
 
     Parameters
@@ -165,6 +167,10 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) 
         Recorded as ``Motion.source`` (default the object's name).
     scene : bpy.types.Scene, optional
         Default the current scene; its frame is restored afterwards.
+    leaf_tails : bool
+        A childless bone without an end bone gets its tail as End Site (True: Blender's BVH
+        importer puts the End Site there) or none (False: an FBX has no tails; the importer
+        guesses them).
 
     Returns
     -------
@@ -197,7 +203,9 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) 
             step = float(np.median(np.diff(times)))
             step = step if abs(step - round(step)) > 1e-3 else float(round(step))
             n = int(round((times[-1] - times[0]) / step)) + 1
-            frames = times[0] + step * np.arange(n)
+            # the keys themselves when there is one per frame (an importer may let them drift off whole
+            # frames by a fraction, e.g. at 120.0005 fps); else a regular grid
+            frames = times if len(times) == n else times[0] + step * np.arange(n)
             fps = scene_fps / step
         else:
             frames = range(scene.frame_start, scene.frame_end + 1)
@@ -217,7 +225,7 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None) 
         end_kids = [c for c in b.children if _is_end_bone(c)]
         if end_kids:
             ends[j] = K0 @ np.array(end_kids[0].head_local) + t0 - heads[j]
-        elif not b.children:
+        elif not b.children and leaf_tails:
             ends[j] = K0 @ np.array(b.tail_local) + t0 - heads[j]
     pose_bones = [obj.pose.bones[b.name] for b in bones]
     A = np.array([_mat(b.matrix_local) for b in bones])  # rest, armature space (float32 in Blender)
@@ -286,7 +294,8 @@ def _world_heads(sk: Skeleton) -> np.ndarray:
     return heads
 
 
-def new_armature(skeleton: Skeleton, name: str = "splicer", *, collection=None, leaf_bones: bool = False):
+def new_armature(skeleton: Skeleton, name: str = "splicer", *, collection=None, leaf_bones: bool = False,
+                 aligned: bool = False):
     """A new armature object whose rest pose is ``skeleton`` (heads at the rest joints, Z up).
 
     Bone tails point at the (mean of the) children, else the End Site, else continue the
@@ -322,6 +331,8 @@ def new_armature(skeleton: Skeleton, name: str = "splicer", *, collection=None, 
                 d = np.array([0.0, 1.0, 0.0])
             if np.linalg.norm(d) < 1e-4 * scale:
                 d = np.array([0.0, 0.1 * scale, 0.0])
+            if aligned:  # every bone's frame = the file axes (BVH's joint frames): bone Y along file +Y
+                d = np.array([0.0, np.linalg.norm(d), 0.0])
             eb.head = C @ h
             eb.tail = C @ (h + d)
             eb.roll = 0.0
@@ -335,6 +346,7 @@ def new_armature(skeleton: Skeleton, name: str = "splicer", *, collection=None, 
                     eb = data.edit_bones.new(f"{n}_end")
                     eb.head = C @ (heads[j] + es)
                     d = es if np.linalg.norm(es) > 1e-4 * scale else np.array([0.0, 0.1 * scale, 0.0])
+                    d = np.array([0.0, np.linalg.norm(d), 0.0]) if aligned else d
                     eb.tail = C @ (heads[j] + es + 0.25 * d)
                     eb.parent = ebs[j]
     finally:
@@ -436,7 +448,7 @@ def _empty_scene():
 
 
 def _set_fps(scene, fps: float) -> None:
-    base = int(np.ceil(fps - 1e-9))
+    base = int(round(fps))
     scene.render.fps = max(base, 1)
     scene.render.fps_base = scene.render.fps / fps
 
@@ -444,25 +456,31 @@ def _set_fps(scene, fps: float) -> None:
 def import_fbx_armature(path: str):
     """Import ``path`` with Blender's FBX importer into the current scene; the armature object.
 
+    A light in the file is read as a placeholder point light (Blender 5.0's importer fails
+    on lights otherwise: ``'CyclesLightSettings' object has no attribute 'cast_shadow'``).
+    ASCII FBX files are refused by the importer ("ASCII FBX files are not supported").
+
     Raises
     ------
     FBXError
-        The importer fails (naming Blender 5.0's known failure on lights), or the file has
-        no armature, or several (naming them).
+        The importer fails (its last message line), or the file has no armature, or several
+        of the same size (naming them).
     """
     bpy = _bpy()
     before = set(bpy.data.objects)
+    # the importer scales by UnitScaleFactor / (100 * scene scale_length): undo it, so lengths are the file's
+    scale = 100.0 * bpy.context.scene.unit_settings.scale_length / _fbx_unit_scale(path)
+    restore = _lights_as_placeholders()
     try:
-        # the importer scales by UnitScaleFactor / (100 * scene scale_length): undo it, so lengths are the file's
-        scale = 100.0 * bpy.context.scene.unit_settings.scale_length / _fbx_unit_scale(path)
         res = bpy.ops.import_scene.fbx(filepath=str(path), use_anim=True, ignore_leaf_bones=False,
                                        automatic_bone_orientation=False, global_scale=scale,
                                        use_custom_props=False, use_image_search=False)
     except Exception as e:  # noqa: BLE001 - the importer raises anything; one line for the user
-        msg = str(e).strip().splitlines()[-1] if str(e).strip() else type(e).__name__
-        hint = " (Blender 5.0's FBX importer fails on files with lights: export armatures only)" \
-            if "light" in str(e).lower() or "lamp" in str(e).lower() else ""
-        raise FBXError(f"{path}: Blender's FBX importer failed: {msg}{hint}") from None
+        lines = [ln.strip() for ln in str(e).splitlines() if ln.strip() and not ln.startswith("Location:")]
+        msg = lines[-1] if lines else type(e).__name__
+        raise FBXError(f"{path}: Blender's FBX importer failed: {msg.removeprefix('Error: ')}") from None
+    finally:
+        restore()
     if "FINISHED" not in res:
         raise FBXError(f"{path}: Blender's FBX importer could not read the file")
     arms = [o for o in bpy.data.objects if o not in before and o.type == "ARMATURE"]
@@ -473,6 +491,29 @@ def import_fbx_armature(path: str):
         if len(arms[0].data.bones) == len(arms[1].data.bones):
             raise FBXError(f"{path}: {len(arms)} armatures ({', '.join(o.name for o in arms)}); keep one per file")
     return arms[0]
+
+
+def _lights_as_placeholders():
+    """Work around Blender 5.0's FBX importer failing on any light (``lamp.cycles.cast_shadow``
+    no longer exists): while importing, a light becomes a plain point light (lights do not
+    matter here).  Returns the function that restores the importer."""
+    try:
+        from io_scene_fbx import import_fbx
+    except ImportError:
+        return lambda: None
+    original = import_fbx.blen_read_light
+
+    def placeholder(fbx_tmpl, fbx_obj, settings):
+        import bpy
+
+        return bpy.data.lights.new(name="fbx light", type="POINT")
+
+    import_fbx.blen_read_light = placeholder
+
+    def restore():
+        import_fbx.blen_read_light = original
+
+    return restore
 
 
 def _fbx_unit_scale(path) -> float:
@@ -496,7 +537,7 @@ def _read_in_blender(path: str) -> Motion:
     ad = obj.animation_data
     if ad is None or ad.action is None:
         raise FBXError(f"{path}: the armature {obj.name!r} has no animation")
-    return armature_motion(obj, source=str(path), scene=scene)
+    return armature_motion(obj, source=str(path), scene=scene, leaf_tails=False)
 
 
 def _write_in_blender(motion: Motion, path: str) -> None:
@@ -505,7 +546,7 @@ def _write_in_blender(motion: Motion, path: str) -> None:
     _set_fps(scene, motion.fps)
     scene.frame_start, scene.frame_end = 1, motion.n_frames
     name = Path(motion.source).stem if motion.source else "splicer"
-    obj = new_armature(motion.skeleton, name, leaf_bones=True)
+    obj = new_armature(motion.skeleton, name, leaf_bones=True, aligned=True)
     # Blender's exporter writes each bone's node transform at the current frame, and an importer takes
     # those as the rest pose of an armature without a mesh: key the rest pose at frame 0 (outside the
     # exported range 1..T) and export from there.

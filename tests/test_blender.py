@@ -192,7 +192,7 @@ def test_fbx_round_trip_of_the_sample(tmp_path, fbx_takes):
         np.testing.assert_allclose(a.skeleton.offsets, b.skeleton.offsets, atol=1e-4)
         np.testing.assert_allclose(np.nan_to_num(a.skeleton.end_sites, nan=9e9),
                                    np.nan_to_num(b.skeleton.end_sites, nan=9e9), atol=1e-4)
-        assert _angle(a, b).max() < 2e-3
+        assert _angle(a, b).max() < 2e-4
         np.testing.assert_allclose(a.translations[:, 0], b.translations[:, 0], atol=1e-4)
     assert main([str(bf), str(hf), "-o", str(out), "--constraints", str(SYNC), "-q"]) == 0
     got = read_fbx(out)
@@ -203,8 +203,9 @@ def test_fbx_round_trip_of_the_sample(tmp_path, fbx_takes):
     assert _angle(got, body)[:, non_finger].max() < 0.01  # the body's own bones, unchanged
 
 
-@pytest.mark.xfail(strict=True, reason="the alignment moves by up to 3 hands frames under 1e-5 degree input noise "
-                   "(sign features with a dead zone); FBX keeps rotations to ~4e-4 degrees only")
+@pytest.mark.xfail(strict=True, reason="the alignment moves by up to 3 hands frames under 1e-5 degree Gaussian "
+                   "noise on the input channels (measured on this sample); FBX keeps rotations to ~4e-5 degrees "
+                   "(float32), which moves the FBX splice up to 1.3 degrees from the BVH one")
 def test_fbx_splice_equals_the_bvh_splice(fbx_takes, cli_bvh):
     from splicer.pipeline import splice
 
@@ -248,3 +249,29 @@ def test_built_extension_installs_and_registers(tmp_path):
                        env={"HOME": str(home), "PATH": "/usr/bin:/bin"}, timeout=300)
     line = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT")]
     assert line == ["RESULT ['FINISHED'] True True True"], r.stdout[-2000:] + r.stderr[-2000:]
+
+
+def test_fbx_with_a_light_and_ascii_fbx(tmp_path):
+    """Blender 5.0's importer fails on lights (worked around), and refuses ASCII FBX (one line)."""
+    from splicer.errors import SplicerError
+    from splicer.fbx import read_fbx
+
+    lit = tmp_path / "lit.fbx"
+    code = ("import bpy, sys\n"
+            "from splicer import fbx\nfrom splicer.bvh import read_bvh\n"
+            "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
+            "m = read_bvh(sys.argv[1]).slice(0, 12)\n"
+            "o = fbx.new_armature(m.skeleton, 'a'); fbx.bake_action(o, m)\n"
+            "sc = bpy.context.scene; sc.frame_start, sc.frame_end = 1, 12\n"
+            "sc.collection.objects.link(bpy.data.objects.new('lamp', bpy.data.lights.new('lamp', 'POINT')))\n"
+            "bpy.ops.export_scene.fbx(filepath=sys.argv[2], object_types={'ARMATURE', 'LIGHT'}, bake_anim=True)\n")
+    subprocess.run([sys.executable, "-c", code, str(BODY), str(lit)], capture_output=True, cwd=ROOT,
+                   env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin", "HOME": str(tmp_path)}, check=True)
+    m = read_fbx(lit)
+    assert m.n_frames == 12 and m.skeleton.n_joints == 52
+    asc = tmp_path / "ascii.fbx"
+    asc.write_text("; FBX 7.4.0 project file\nFBXHeaderExtension:  {\n}\n")
+    with pytest.raises(SplicerError, match=r"ascii\.fbx: Blender's FBX importer failed: ASCII FBX files are not supported"):
+        read_fbx(asc)
+    with pytest.raises(SplicerError, match=r"nothere\.fbx: no such file"):
+        read_fbx(tmp_path / "nothere.fbx")

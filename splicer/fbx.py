@@ -114,23 +114,23 @@ def _orthonormal(m: np.ndarray) -> np.ndarray:
     return u @ vt
 
 
-def _basis_rotation(pb) -> np.ndarray:
-    """A pose bone's own rotation channels (``matrix_basis`` rotation) as a double-precision 3x3 matrix."""
+def _basis_rotations(mode: str, quat, euler, axis_angle) -> np.ndarray:
+    """A pose bone's own rotation channels over frames (``matrix_basis`` rotations), as double
+    precision matrices (T, 3, 3), from the values of its rotation mode (float32 arrays)."""
     from .rotations import quat_from_euler, quat_normalize, quat_to_matrix
 
-    mode = pb.rotation_mode
     if mode == "QUATERNION":
-        q = quat_normalize(np.array(pb.rotation_quaternion, dtype=np.float64))
+        q = quat_normalize(np.asarray(quat, dtype=np.float64))
     elif mode == "AXIS_ANGLE":
-        ang, x, y, z = (float(v) for v in pb.rotation_axis_angle)
-        axis = np.array([x, y, z])
-        nrm = np.linalg.norm(axis)
-        axis = axis / nrm if nrm > 0 else np.array([0.0, 1.0, 0.0])
-        q = np.concatenate([[np.cos(ang / 2)], np.sin(ang / 2) * axis])
+        aa = np.asarray(axis_angle, dtype=np.float64)
+        axis = aa[:, 1:]
+        nrm = np.linalg.norm(axis, axis=1, keepdims=True)
+        axis = np.where(nrm > 0, axis / np.where(nrm > 0, nrm, 1.0), [0.0, 1.0, 0.0])
+        q = np.concatenate([np.cos(aa[:, :1] / 2), np.sin(aa[:, :1] / 2) * axis], axis=1)
     else:  # Blender's Euler 'XYZ' applies X first: M = Rz Ry Rx, i.e. intrinsic "ZYX" with (z, y, x)
-        e = np.degrees(np.array(pb.rotation_euler, dtype=np.float64))
+        e = np.degrees(np.asarray(euler, dtype=np.float64))
         order = mode[::-1]
-        q = quat_from_euler(e[["XYZ".index(a) for a in order]], order)
+        q = quat_from_euler(e[:, ["XYZ".index(a) for a in order]], order)
     return quat_to_matrix(q)
 
 
@@ -227,34 +227,46 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None, 
             ends[j] = K0 @ np.array(end_kids[0].head_local) + t0 - heads[j]
         elif not b.children and leaf_tails:
             ends[j] = K0 @ np.array(b.tail_local) + t0 - heads[j]
-    pose_bones = [obj.pose.bones[b.name] for b in bones]
+    pose = obj.pose.bones
+    pidx = np.array([pose.find(b.name) for b in bones])  # pose bone index of each joint
+    NP = len(pose)
     A = np.array([_mat(b.matrix_local) for b in bones])  # rest, armature space (float32 in Blender)
     A[:, :3, :3] = [_orthonormal(a) for a in A[:, :3, :3]]
-    local = np.empty((T, J, 3, 3))
-    G = np.empty((T, J, 3, 3))
-    root_pos = np.empty((T, 3))
-    basis_pos = np.empty((T, 3))
-    moved = set()
+    modes = [pose[int(i)].rotation_mode for i in pidx]
+    W_all = np.empty((T, 4, 4))
+    M_all = np.empty((T, NP, 16), dtype=np.float32)
+    quat = np.empty((T, NP, 4), dtype=np.float32)
+    eul = np.empty((T, NP, 3), dtype=np.float32)
+    axang = np.empty((T, NP, 4), dtype=np.float32)
+    loc = np.empty((T, NP, 3), dtype=np.float32)
     keep = scene.frame_current, scene.frame_subframe
     try:
         for t, f in enumerate(frames):
             scene.frame_set(int(np.floor(f + 1e-6)), subframe=max(0.0, f - np.floor(f + 1e-6)))
-            W = _mat(obj.matrix_world)
-            K = C.T @ W[:3, :3]
-            R = _orthonormal(K)
-            for j, pb in enumerate(pose_bones):
-                M = _mat(pb.matrix)
-                G[t, j] = R @ M[:3, :3] @ rest_rot[j].T
-                # the local rotation from the bone's own channels, in double precision: R_j = A_j B_j A_j^T
-                local[t, j] = R0 @ A[j, :3, :3] @ _basis_rotation(pb) @ A[j, :3, :3].T @ R0.T
-                if j == 0:
-                    root_pos[t] = K @ M[:3, 3] + C.T @ W[:3, 3]
-                    basis_pos[t] = K @ (A[0, :3, 3] + A[0, :3, :3] @ np.array(pb.location, dtype=np.float64)) \
-                        + C.T @ W[:3, 3]
-                elif any(abs(v) > 1e-6 for v in pb.location):
-                    moved.add(bones[j].name)
+            W_all[t] = _mat(obj.matrix_world)
+            pose.foreach_get("matrix", M_all[t].ravel())
+            pose.foreach_get("rotation_quaternion", quat[t].ravel())
+            pose.foreach_get("rotation_euler", eul[t].ravel())
+            pose.foreach_get("rotation_axis_angle", axang[t].ravel())
+            pose.foreach_get("location", loc[t].ravel())
     finally:
         scene.frame_set(keep[0], subframe=keep[1])
+    # matrices come flat in column-major order (Blender's float[4][4] is [column][row])
+    M = np.swapaxes(M_all[:, pidx].astype(np.float64).reshape(T, J, 4, 4), -1, -2)
+    K = C.T @ W_all[:, :3, :3]  # (T, 3, 3)
+    R = np.array([_orthonormal(k) for k in K]) if T else np.zeros((0, 3, 3))
+    tw = (C.T @ W_all[:, :3, 3:])[..., 0]  # (T, 3)
+    G = R[:, None] @ M[..., :3, :3] @ np.swapaxes(rest_rot, -1, -2)[None]
+    # the local rotation from the bones' own channels, in double precision: R_j = A_j B_j A_j^T
+    B = np.empty((T, J, 3, 3))
+    for j, mode in enumerate(modes):
+        i = int(pidx[j])
+        B[:, j] = _basis_rotations(mode, quat[:, i], eul[:, i], axang[:, i])
+    Ar = R0 @ A[:, :3, :3]  # (J, 3, 3)
+    local = Ar[None] @ B @ np.swapaxes(A[:, :3, :3], -1, -2)[None] @ R0.T
+    root_pos = (K @ M[:, 0, :3, 3:])[..., 0] + tw
+    basis_pos = (K @ (A[0, :3, 3] + loc[:, int(pidx[0])].astype(np.float64) @ A[0, :3, :3].T)[..., None])[..., 0] + tw
+    moved = {bones[j].name for j in range(1, J) if np.abs(loc[:, int(pidx[j])]).max(initial=0.0) > 1e-6}
     # where constraints, drivers or unusual inheritance make the evaluated pose differ from the bones'
     # own channels, the evaluated pose (float32 through the chain) is the truth
     from_pose = np.empty_like(G)

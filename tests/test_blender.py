@@ -234,21 +234,36 @@ def test_unknown_suffix_is_refused(tmp_path):
         read_motion(tmp_path / "x.c4d")
 
 
-def test_built_extension_installs_and_registers(tmp_path):
-    """`python -m splicer.blender.build` makes a zip that Blender installs and enables."""
+def test_built_extension_installs_registers_and_splices(tmp_path):
+    """`python -m splicer.blender.build` makes a zip that Blender installs and enables; its
+    operators splice with the bundled splicer and re-apply the time map."""
     from splicer.blender.build import build
 
     z = build(tmp_path / "splicer_blender.zip")
-    code = ("import bpy\n"
-            "r = bpy.ops.extensions.package_install_files(filepath=%r, repo='user_default', enable_on_install=True)\n"
-            "print('RESULT', sorted(r), hasattr(bpy.types, 'SPLICER_PT_panel'), hasattr(bpy.ops.splicer, 'splice'),"
-            " hasattr(bpy.types.Scene, 'splicer'))\n") % str(z)
+    code = f"""import bpy, sys
+r = bpy.ops.extensions.package_install_files(filepath={str(z)!r}, repo='user_default', enable_on_install=True)
+print('RESULT', sorted(r), hasattr(bpy.types, 'SPLICER_PT_panel'), hasattr(bpy.ops.splicer, 'splice'),
+      hasattr(bpy.types.Scene, 'splicer'))
+objs = {{}}
+for k, path in (('body', {str(BODY)!r}), ('hands', {str(HANDS)!r})):
+    bpy.ops.import_anim.bvh(filepath=path, update_scene_fps=k == 'body', use_fps_scale=k == 'hands',
+                            rotate_mode='QUATERNION')
+    objs[k] = bpy.context.object
+st = bpy.context.scene.splicer
+st.body, st.hands, st.side = objs['body'], objs['hands'], 'left'
+r = bpy.ops.splicer.splice()
+print('SPLICE', sorted(r), objs['body'].animation_data.action.name, 'splicer_timemap_left' in objs['body'],
+      'bl_ext.user_default.splicer.splicer.pipeline' in sys.modules, 'splicer.pipeline' in sys.modules)
+print('REAPPLY', sorted(bpy.ops.splicer.reapply_time_map()))
+"""
     home = tmp_path / "home"
     home.mkdir()
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
                        env={"HOME": str(home), "PATH": "/usr/bin:/bin"}, timeout=300)
-    line = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT")]
-    assert line == ["RESULT ['FINISHED'] True True True"], r.stdout[-2000:] + r.stderr[-2000:]
+    lines = [ln for ln in r.stdout.splitlines() if ln.startswith(("RESULT", "SPLICE", "REAPPLY"))]
+    assert lines == ["RESULT ['FINISHED'] True True True",
+                     "SPLICE ['FINISHED'] sample_body_spliced True True False",  # the bundled copy, not the repo's
+                     "REAPPLY ['FINISHED']"], r.stdout[-2000:] + r.stderr[-2000:]
 
 
 def test_fbx_with_a_light_and_ascii_fbx(tmp_path):

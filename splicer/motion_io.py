@@ -1,37 +1,33 @@
-"""Read and write a motion by its file extension: ``.bvh`` (splicer's own reader and writer)
-or ``.fbx`` (Blender's importer and exporter, :mod:`splicer.fbx`, needs ``splicer[blender]``)."""
+"""Read and write a motion by its file extension: ``.fbx`` through Blender's importer and
+exporter (:mod:`splicer.fbx`, needs ``splicer[blender]``), anything else as BVH (splicer's
+own reader and writer, which also read pipes)."""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
-from .errors import SplicerError
 from .model import Motion
 
-__all__ = ["MOTION_SUFFIXES", "read_motion", "write_motion"]
-
-MOTION_SUFFIXES = (".bvh", ".fbx")
+__all__ = ["read_motion", "write_motion"]
 
 
-def _kind(path, what: str) -> str:
-    suffix = Path(path).suffix.lower()
-    if suffix not in MOTION_SUFFIXES:
-        raise SplicerError(f"{path}: cannot {what} a {suffix or 'suffix-less'} file; motions are "
-                           f"{' or '.join(s[1:].upper() for s in MOTION_SUFFIXES)} ({', '.join(MOTION_SUFFIXES)})")
-    return suffix
+def _is_fbx(path) -> bool:
+    """``.fbx`` (any case) goes to Blender; everything else is BVH, as before (also pipes such as
+    ``/dev/stdin`` or ``<(...)``, which have no suffix)."""
+    return Path(path).suffix.lower() == ".fbx"
 
 
 def read_motion(path: str | os.PathLike) -> Motion:
-    """A BVH or FBX file as a :class:`~splicer.model.Motion`, chosen by the suffix (any case).
+    """A BVH or FBX file as a :class:`~splicer.model.Motion`: ``.fbx`` (any case) is read by
+    Blender (:func:`splicer.fbx.read_fbx`), any other path as BVH (:func:`splicer.bvh.read_bvh`).
 
     Raises
     ------
     SplicerError
-        An unknown suffix; otherwise what :func:`splicer.bvh.read_bvh` or
-        :func:`splicer.fbx.read_fbx` raise (a missing ``bpy`` for FBX: one line saying how to install it).
+        What the reader raises (for FBX without ``bpy``: one line saying how to install it).
     """
-    if _kind(path, "read") == ".fbx":
+    if _is_fbx(path):
         from .fbx import read_fbx
 
         return read_fbx(path)
@@ -41,9 +37,9 @@ def read_motion(path: str | os.PathLike) -> Motion:
 
 
 def write_motion(motion: Motion, path: str | os.PathLike) -> None:
-    """Write ``motion`` as BVH or FBX by the suffix of ``path``, atomically (inside a
+    """Write ``motion`` as FBX (a ``.fbx`` path) or else BVH, atomically (inside a
     :class:`~splicer.atomic.Transaction`: staged with the other outputs)."""
-    if _kind(path, "write") == ".fbx":
+    if _is_fbx(path):
         from .fbx import write_fbx
 
         return write_fbx(motion, path)

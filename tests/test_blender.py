@@ -226,12 +226,16 @@ def test_missing_bpy_is_one_line(tmp_path):
     assert r.stdout.strip() == 'FBXError FBX needs Blender\'s bpy: pip install "splicer[blender]"'
 
 
-def test_unknown_suffix_is_refused(tmp_path):
-    from splicer.errors import SplicerError
+def test_other_suffixes_are_bvh(tmp_path):
+    """Only .fbx goes to Blender: any other path is BVH (pipes have no suffix), with the BVH reader's message."""
+    from splicer.errors import BVHError
     from splicer.motion_io import read_motion
 
-    with pytest.raises(SplicerError, match=r"x\.c4d: cannot read a \.c4d file; motions are BVH or FBX"):
-        read_motion(tmp_path / "x.c4d")
+    p = tmp_path / "x.c4d"
+    p.write_text("not a motion\n")
+    with pytest.raises(BVHError, match="x.c4d"):
+        read_motion(p)
+    assert read_motion(BODY).n_frames == 601
 
 
 def test_built_extension_installs_registers_and_splices(tmp_path):

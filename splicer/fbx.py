@@ -256,6 +256,7 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None, 
     K = C.T @ W_all[:, :3, :3]  # (T, 3, 3)
     R = np.array([_orthonormal(k) for k in K]) if T else np.zeros((0, 3, 3))
     tw = (C.T @ W_all[:, :3, 3:])[..., 0]  # (T, 3)
+    s_arm = float(np.cbrt(abs(np.linalg.det(K0)))) or 1.0  # armature units -> file units
     G = R[:, None] @ M[..., :3, :3] @ np.swapaxes(rest_rot, -1, -2)[None]
     # the local rotation from the bones' own channels, in double precision: R_j = A_j B_j A_j^T
     B = np.empty((T, J, 3, 3))
@@ -266,7 +267,9 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None, 
     local = Ar[None] @ B @ np.swapaxes(A[:, :3, :3], -1, -2)[None] @ R0.T
     root_pos = (K @ M[:, 0, :3, 3:])[..., 0] + tw
     basis_pos = (K @ (A[0, :3, 3] + loc[:, int(pidx[0])].astype(np.float64) @ A[0, :3, :3].T)[..., None])[..., 0] + tw
-    moved = {bones[j].name for j in range(1, J) if np.abs(loc[:, int(pidx[j])]).max(initial=0.0) > 1e-6}
+    # a bone's own translation channels, beyond float noise (1e-4 of the skeleton's size)
+    size = max(float(np.abs(heads - heads[0]).max(initial=0.0)), 1e-12)
+    moved = {bones[j].name for j in range(1, J) if np.abs(loc[:, int(pidx[j])]).max(initial=0.0) * s_arm > 1e-4 * size}
     # where constraints, drivers or unusual inheritance make the evaluated pose differ from the bones'
     # own channels, the evaluated pose (float32 through the chain) is the truth
     from_pose = np.empty_like(G)
@@ -581,15 +584,22 @@ def _write_in_blender(motion: Motion, path: str) -> None:
         raise FBXError(f"{path}: Blender's FBX exporter failed")
 
 
-def _motion_to_npz(m: Motion, path: str) -> None:
+def _motion_to_npz(m: Motion, path: str, notes=()) -> None:
     sk = m.skeleton
     np.savez(path, names=np.array(sk.names, dtype=object), parents=sk.parents, offsets=sk.offsets,
              channels=np.array(["\t".join(c) for c in sk.channels], dtype=object), end_sites=sk.end_sites,
-             data=m.channels, frame_time=m.frame_time, source=np.array(m.source or "", dtype=object))
+             data=m.channels, frame_time=m.frame_time, source=np.array(m.source or "", dtype=object),
+             notes=np.array(list(notes), dtype=object))
 
 
 def _motion_from_npz(path: str, source: str | None = None) -> Motion:
+    import warnings
+
+    from .errors import SplicerWarning
+
     z = np.load(path, allow_pickle=True)
+    for note in z["notes"] if "notes" in z.files else ():
+        warnings.warn(str(note), SplicerWarning, stacklevel=3)  # collected into the report by load_inputs
     sk = Skeleton(tuple(str(n) for n in z["names"]), z["parents"], z["offsets"],
                   tuple(tuple(str(c).split("\t")) if c else () for c in z["channels"]), z["end_sites"])
     return Motion(sk, z["data"], float(z["frame_time"]), source or str(z["source"].item()) or None)
@@ -661,10 +671,15 @@ def write_fbx(motion: Motion, path: str | os.PathLike) -> None:
 def _main(argv: list[str]) -> int:
     import warnings
 
+    from .errors import SplicerWarning
+
     warnings.simplefilter("ignore")
     try:
         if len(argv) == 3 and argv[0] == "read":
-            _motion_to_npz(_read_in_blender(argv[1]), argv[2])
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", SplicerWarning)
+                m = _read_in_blender(argv[1])
+            _motion_to_npz(m, argv[2], [str(w.message) for w in caught if issubclass(w.category, SplicerWarning)])
         elif len(argv) == 3 and argv[0] == "write":
             _write_in_blender(_motion_from_npz(argv[1]), argv[2])
         else:

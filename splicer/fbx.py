@@ -21,8 +21,7 @@ An armature becomes a :class:`~splicer.model.Skeleton` as follows:
 
 * **joints** = bones, parents before children (Blender's bone order is depth-first);
   names are the bone names.  A childless bone named ``<parent>_end`` (Blender's FBX
-  "leaf bones"), ``*End``/``*_Nub``/``*Nub`` (MotionBuilder, 3ds Max) is not a joint: its
-  head is its parent's **End Site**.  Any other childless bone has no End Site when read
+  "leaf bones") or ``*Nub`` (3ds Max) is not a joint: its head is its parent's **End Site**.  Any other childless bone has no End Site when read
   from an FBX file (FBX has no bone tails; the importer guesses them) and its tail as End
   Site when read from an armature in a scene (Blender's BVH importer puts it there).
 * **axes and units**: coordinates are the file's own.  Blender's importers (BVH and FBX,
@@ -73,7 +72,7 @@ BPY_MISSING = 'FBX needs Blender\'s bpy: pip install "splicer[blender]"'
 
 # world (Blender, Z up) = AXIS_CONVERSION @ file (Y up, -Z forward): Blender's importers' default
 AXIS_CONVERSION = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-_END_SUFFIXES = ("_end", "End", "_Nub", "Nub", "_End")
+_END_SUFFIXES = ("Nub",)
 _ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
 _JOINT_CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
 
@@ -99,7 +98,11 @@ def _bpy():
 
 
 def _is_end_bone(bone) -> bool:
-    return not bone.children and bone.parent is not None and bone.name.endswith(_END_SUFFIXES)
+    """A childless bone that only marks its parent's end: Blender's FBX leaf bone ``<parent>_end``,
+    or 3ds Max's ``*Nub``.  (A joint merely named ``...End``, as in ZEGGS, is a joint.)"""
+    if bone.children or bone.parent is None:
+        return False
+    return bone.name == f"{bone.parent.name}_end" or bone.name.endswith(_END_SUFFIXES)
 
 
 # ---------------------------------------------------------------- armature -> Motion (needs bpy)

@@ -21,9 +21,10 @@ An armature becomes a :class:`~splicer.model.Skeleton` as follows:
 
 * **joints** = bones, parents before children (Blender's bone order is depth-first);
   names are the bone names.  A childless bone named ``<parent>_end`` (Blender's FBX
-  "leaf bones") or ``*Nub`` (3ds Max) is not a joint: its head is its parent's **End Site**.  Any other childless bone has no End Site when read
-  from an FBX file (FBX has no bone tails; the importer guesses them) and its tail as End
-  Site when read from an armature in a scene (Blender's BVH importer puts it there).
+  "leaf bones") or ``*Nub`` (3ds Max) is not a joint: its head is its parent's **End Site**.
+  Any other childless bone has no End Site when read from an FBX file (FBX has no bone
+  tails; the importer guesses them) and its tail as End Site when read from an armature in
+  a scene (Blender's BVH importer puts it there).
 * **axes and units**: coordinates are the file's own.  Blender's importers (BVH and FBX,
   default settings) convert a Y-up file to Blender's Z-up world with ``world = C @ file``,
   ``C = axis_conversion(from_forward="-Z", from_up="Y")``; we undo exactly that
@@ -285,8 +286,8 @@ def armature_motion(obj, *, frames=None, source: str | None = None, scene=None, 
         root_pos = basis_pos
     q = quat_from_matrix(local)  # (T, J, 4)
     if (parents[1:] < 0).any():
-        raise FBXError(f"armature {obj.name!r}: several root bones ({', '.join(bones[j].name for j in np.flatnonzero(parents < 0))}); "
-                       "one skeleton needs one root")
+        roots = ", ".join(bones[j].name for j in np.flatnonzero(parents < 0))
+        raise FBXError(f"armature {obj.name!r}: several root bones ({roots}); one skeleton needs one root")
     channels = [_ROOT_CHANNELS if j == 0 else _JOINT_CHANNELS for j in range(J)]
     sk = Skeleton(tuple(b.name for b in bones), parents, offsets, tuple(channels), ends)
     m = Motion(sk, np.zeros((T, sk.n_channels)), 1.0 / fps, source or obj.name)

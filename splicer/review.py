@@ -115,7 +115,8 @@ class PinReview:
             else:
                 before = [p for p in self.pins if p.body < b]
                 after = [p for p in self.pins if p.body > b]
-                if any(p.body == b for p in self.pins) or (before and before[-1].hands >= h) or (after and after[0].hands <= h):
+                if (any(p.body == b for p in self.pins) or (before and before[-1].hands >= h)
+                        or (after and after[0].hands <= h)):
                     why = f"a pin at body {b}, hands {h} would not increase in both takes with its neighbours"
             if why:
                 out = {"action": "refused", "pin": (b, h), "why": why}
@@ -204,7 +205,11 @@ class PinReview:
                     e["tolerance"] = p.tolerance
                 kept.append(e)
         fps = self.spaces.body_fps
-        kept.sort(key=lambda e: e["body"] if isinstance(e["body"], (int, float)) else float(str(e["body"]).rstrip("s")) * fps)
+        def body_frame(e):  # a frame number, or "<seconds>s"
+            b = e["body"]
+            return b if isinstance(b, (int, float)) else float(str(b).rstrip("s")) * fps
+
+        kept.sort(key=body_frame)
         doc["pairs"] = kept
         text = yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
         write_atomic(path, lambda f: f.write(text.encode("utf-8")), what="constraints file")

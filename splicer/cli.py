@@ -27,6 +27,7 @@ from .io.limits import one_line, shorten
 EXAMPLES = """\
 examples:
   splice body.bvh hands.bvh -o out.bvh
+  splice body.fbx hands.fbx -o out.fbx
   splice body.bvh hands.bvh -o out.bvh --constraints sync.yaml
   splice body.bvh hands.bvh -o out.bvh --report report.json --plot align.png
   splice body.bvh right_hand.bvh -o out.bvh --side right --band 20s
@@ -57,9 +58,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "body take's skeleton, frames and timing, with the fingers (and optionally the wrists) "
                     "driven by the hands take, aligned by two-pass dynamic time warping.",
         epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("body", help="full-body BVH (its timing is kept)")
-    p.add_argument("hands", help="hand BVH: a full skeleton, a forearm-rooted or a wrist-rooted hand")
-    p.add_argument("-o", "--output", required=True, help="output BVH (written atomically; never an input file)")
+    p.add_argument("body", help="full-body BVH or FBX (its timing is kept; FBX needs splicer[blender])")
+    p.add_argument("hands", help="hand BVH or FBX: a full skeleton, a forearm-rooted or a wrist-rooted hand")
+    p.add_argument("-o", "--output", required=True, help="output BVH or FBX, by suffix (written atomically; never an input file)")
     p.add_argument("--constraints", metavar="YAML", help="matching frames pinned by the animator, joint mappings")
     p.add_argument("--report", metavar="JSON", help="write the alignment report (time map per side, costs, timings)")
     p.add_argument("--plot", metavar="PNG", help="write cost matrices, bands, constraints and paths")
@@ -209,7 +210,7 @@ def main(argv=None) -> int:
     old_handlers = _install_handlers()
     tx = Transaction()
     try:
-        from .io.bvh import write_bvh
+        from .io.motion_io import write_motion
         from .pipeline import splice
 
         out = Path(args.output)
@@ -226,7 +227,7 @@ def main(argv=None) -> int:
                             hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
                             offset_s=args.offset)
         with tx:  # every output is staged, and appears only at tx.commit()
-            write_bvh(result.motion, out)
+            write_motion(result.motion, out)  # BVH or FBX by suffix
             if args.report:
                 _write_json(result.report.to_dict(), Path(args.report))
             if args.plot:

@@ -78,15 +78,15 @@ def load_inputs(body, hands, config=None, log: Log | None = None, *, body_marker
 
     ``body_markers``, ``hands_markers``: optional marker files (C3D, TRC, CSV; paths or
     :class:`~splicer.trajectories.Trajectories`) captured with each take, used for the alignment."""
-    from .io.bvh import read_bvh
     from .io.config import SpliceConfig, read_config
+    from .io.motion_io import read_motion  # BVH or FBX by suffix
 
     log = log or Log()
     log.progress("read", 0.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SplicerWarning)
-        bm = body if isinstance(body, Motion) else read_bvh(body)
-        hm = hands if isinstance(hands, Motion) else read_bvh(hands)
+        bm = body if isinstance(body, Motion) else read_motion(body)
+        hm = hands if isinstance(hands, Motion) else read_motion(hands)
     for w in caught:
         if issubclass(w.category, SplicerWarning):
             log.note(str(w.message))

@@ -1,0 +1,48 @@
+"""Read and write a motion by its file extension: ``.fbx`` through Blender's importer and
+exporter (:mod:`splicer.fbx`, needs ``splicer[blender]``), anything else as BVH (splicer's
+own reader and writer, which also read pipes)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..model.motion import Motion
+
+__all__ = ["read_motion", "write_motion"]
+
+
+def _is_fbx(path) -> bool:
+    """``.fbx`` (any case) goes to Blender; everything else is BVH, as before (also pipes such as
+    ``/dev/stdin`` or ``<(...)``, which have no suffix)."""
+    return Path(path).suffix.lower() == ".fbx"
+
+
+def read_motion(path: str | os.PathLike) -> Motion:
+    """A BVH or FBX file as a :class:`~splicer.model.Motion`: ``.fbx`` (any case) is read by
+    Blender (:func:`splicer.fbx.read_fbx`), any other path as BVH (:func:`splicer.bvh.read_bvh`).
+
+    Raises
+    ------
+    SplicerError
+        What the reader raises (for FBX without ``bpy``: one line saying how to install it).
+    """
+    if _is_fbx(path):
+        from .fbx import read_fbx
+
+        return read_fbx(path)
+    from .bvh import read_bvh
+
+    return read_bvh(path)
+
+
+def write_motion(motion: Motion, path: str | os.PathLike) -> None:
+    """Write ``motion`` as FBX (a ``.fbx`` path) or else BVH, atomically (inside a
+    :class:`~splicer.atomic.Transaction`: staged with the other outputs)."""
+    if _is_fbx(path):
+        from .fbx import write_fbx
+
+        return write_fbx(motion, path)
+    from .bvh import write_bvh
+
+    return write_bvh(motion, path)

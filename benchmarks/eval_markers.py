@@ -15,7 +15,7 @@ difference comes from, both C3D without noise and gaps, with noise only, with ga
 as in :mod:`splicer.evaluation.evaluate` (a body frame left uncovered is scored with the nearest covered hands frame;
 "uncovered" is their share).
 
-    python benchmarks/eval_markers.py [--seeds 100 101 102 103 104] [--out notes/eval_markers.md]
+    python benchmarks/eval_markers.py [--seeds 100 101 102 103 104] [--out benchmarks/results_markers.md]
 """
 
 from __future__ import annotations

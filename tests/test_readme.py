@@ -144,9 +144,14 @@ def test_sh_block(code, workdir):
         assert p.returncode == 0, f"{cmd}\n{p.stderr}"
         assert "Traceback" not in p.stderr
         i = argv.index("-o")
-        if argv[2] == "splicer.batch":  # a folder of outputs, reports and the summary
+        if argv[2] == "splicer.batch":  # the summary in -o, each pair's output where its manifest entry says
+            import yaml
+
             out = workdir / argv[i + 1]
-            assert (out / "summary.md").stat().st_size > 0 and list(out.rglob("*.bvh")), cmd
+            assert (out / "summary.md").stat().st_size > 0, cmd
+            manifest = yaml.safe_load((workdir / argv[3]).read_text())
+            for pair in manifest["pairs"]:
+                assert (workdir / pair["output"]).stat().st_size > 0, (cmd, pair["output"])
             shutil.rmtree(out)
             ran += 1
             continue

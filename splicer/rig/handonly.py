@@ -10,7 +10,7 @@ forearm turned with the hand (wrist-rooted) or the forearm joint (Leap-like).
 body's root (hips) position instead of its shoulder and, against a wrist-rooted file, with
 the forearm marker on the same virtual forearm.  Measured on the evaluation protocol (ALGORITHM.md 8, zeggs take, held-out seeds
 100..104, full method): forearm-rooted hands 1.42 -> 1.12 frames, wrist-rooted 1.54 -> 1.05,
-against 1.03 for the full skeleton (see ``notes/c-handonly.md``).
+against 1.03 for the full skeleton (README, *Accuracy*).
 
 :func:`coincident_forearm` finds the forearm joint of a Leap-like file, which sits at the
 wrist's position (a zero-length bone that role detection skips as the elbow), so that the

@@ -21,7 +21,7 @@ from .metrics import PalmFeatures, d1_cost, d2_cost, palm_features, phase_featur
 from .timewarp import sample_linear
 
 __all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
-           "remap_constraints", "warp_markers"]
+           "remap_constraints", "warp_markers", "coarse_constraints"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,6 +114,25 @@ def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: f
     return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints))
 
 
+def coarse_constraints(constraints, factor: float, n: int, m: int) -> list[Constraint]:
+    """Constraints brought to a coarse rate (``factor`` full-rate frames per coarse frame).
+
+    Each pair is rounded to the nearest coarse frames and its tolerance widened to
+    ``ceil(T / factor) + 1`` coarse frames (the rounding may move it by one); pairs that land on
+    a coarse end frame (``0``, ``n - 1``, ``m - 1``) or do not follow the previous kept pair
+    in both coordinates are dropped (the full-rate pass still honours them).
+
+    >>> coarse_constraints([Constraint(45, 60, 0), Constraint(46, 61, 4)], 3.0, 30, 37)
+    [Constraint(x=15, y=20, tolerance=1)]
+    """
+    out: list[Constraint] = []
+    for c in constraints:
+        x, y = int(round(c.x / factor)), int(round(c.y / factor))
+        if 0 < x < n - 1 and 0 < y < m - 1 and (not out or (x > out[-1].x and y > out[-1].y)):
+            out.append(Constraint(x, y, int(np.ceil(c.tolerance / factor)) + 1))
+    return out
+
+
 def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = SMOOTH_S,
           dead_zone: float = DEAD_ZONE, theta: str = "window", coarse_fps: float | None = None,
           coarse_width: float | None = None, progress=None) -> PassResult:
@@ -144,11 +163,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     if coarse_fps is not None and coarse_fps < body.fps:
         factor = body.fps / coarse_fps
         cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
-        ccons = []
-        for c in constraints:
-            x, y = int(round(c.x / factor)), int(round(c.y / factor))
-            if 0 < x < cb.n_frames - 1 and 0 < y < ch.n_frames - 1 and (not ccons or (x > ccons[-1].x and y > ccons[-1].y)):
-                ccons.append(Constraint(x, y, int(np.ceil(c.tolerance / factor)) + 1))
+        ccons = coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)
         cw = (coarse_width if coarse_width is not None else width) / factor
         coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta)
         try:

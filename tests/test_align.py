@@ -244,3 +244,30 @@ def test_guided_band_by_hand():
     #   lo = floor(2 lo_c - 4.5) -> all 0; hi = ceil(2 hi_c + 4.5) = 7 7 7 9 9 9 13 -> 11
     b = guided_band(cp, 2.0, 9, 12, 3.0)
     assert b.lo.tolist() == [0] * 9 and b.hi.tolist() == [7, 7, 7, 9, 9, 9, 11, 11, 11]
+
+
+def test_coarse_constraints_by_hand():
+    from splicer.align import coarse_constraints
+
+    # factor 3, coarse lengths n = 30, m = 37 (full-rate 90 x 110):
+    # (45, 60, T=0) -> (15, 20), T = ceil(0 / 3) + 1 = 1
+    # (46, 61, T=4) -> (round(15.33), round(20.33)) = (15, 20): does not follow -> dropped
+    # (50, 70, T=7) -> (round(16.67), round(23.33)) = (17, 23), T = ceil(7 / 3) + 1 = 4
+    # (88, 80, T=0) -> (29, 27): x on the last coarse frame (n - 1 = 29) -> dropped
+    # ( 1, 40, T=0) -> (0, 13): x on the first coarse frame -> dropped
+    # (60, 109, T=2) -> (20, 36): y on the last coarse frame (m - 1 = 36) -> dropped
+    # (66, 100, T=2) -> (22, 33), T = 2
+    cons = [Constraint(45, 60, 0), Constraint(46, 61, 4), Constraint(50, 70, 7), Constraint(88, 80, 0)]
+    assert coarse_constraints(cons, 3.0, 30, 37) == [Constraint(15, 20, 1), Constraint(17, 23, 4)]
+    assert coarse_constraints([Constraint(1, 40, 0), Constraint(60, 109, 2), Constraint(66, 100, 2)], 3.0, 30, 37) \
+        == [Constraint(22, 33, 2)]
+    # y must increase too: (57, 63) -> (19, 21) is kept after (15, 20); (60, 63) -> (20, 21) has
+    # the same y and (46, 66) -> (15, 22) the same x as the pair before: dropped
+    got = coarse_constraints([Constraint(45, 60, 0), Constraint(46, 66, 0), Constraint(57, 63, 0),
+                              Constraint(60, 63, 0)], 3.0, 30, 37)
+    assert got == [Constraint(15, 20, 1), Constraint(19, 21, 1)]
+    # the first and last inner coarse frames are kept: (3, 3) -> (1, 1), (84, 105) -> (28, 35);
+    # y on the first coarse frame is not: (30, 1) -> (10, 0)
+    assert coarse_constraints([Constraint(3, 3, 0), Constraint(84, 105, 0)], 3.0, 30, 37) \
+        == [Constraint(1, 1, 1), Constraint(28, 35, 1)]
+    assert coarse_constraints([Constraint(30, 1, 0), Constraint(30, 30, 0)], 3.0, 30, 37) == [Constraint(10, 10, 1)]

@@ -209,6 +209,30 @@ def test_pass2_of_identical_takes_and_its_weights():
     assert with_d1.cost == pytest.approx(_path_cost(with_d1)) and with_d1.cost > pr.cost
 
 
+def test_pass2_local_costs_are_d2_plus_the_weights_it_is_given():
+    from splicer.align import pass2
+    from splicer.metrics import d1_cost, d2_cost, palm_features, phase_features
+
+    body, hands, truth = _warped()
+    from splicer.align import warp_markers
+    on = warp_markers(hands, truth)
+    d2 = d2_cost(palm_features(body.points), palm_features(on.points))
+    plain = pass2(body, on, width=1.5)  # the defaults: the paper's literal pass 2, D2 alone
+    np.testing.assert_array_equal(plain.local_cost(plain.band, 0, 90), d2(plain.band, 0, 90))
+    # weights: 0.7 rad per band width of 1.5 frames, and D1 (heading, own smoothing) / 24 x 2
+    seen = []
+    pr = pass2(body, on, width=1.5, diagonal_weight=0.7, d1_weight=2.0, smooth_s=0.2, dead_zone=0.3,
+               theta="heading", constraints=[Constraint(45, 44, 0)], progress=seen.append)
+    d1 = d1_cost(phase_features(body, smooth_s=0.2, dead_zone=0.3), phase_features(on, smooth_s=0.2, dead_zone=0.3),
+                 theta="heading")
+    band = pr.band
+    cols = band.lo[:, None] + np.arange(band.max_row_width)[None, :]
+    want = d2(band, 0, 90) + (2.0 / 24.0) * d1(band, 0, 90) + 0.7 * np.abs(cols - np.arange(90)[:, None]) / 1.5
+    np.testing.assert_allclose(pr.local_cost(band, 0, 90), want, rtol=1e-12)
+    assert pr.path[pr.path[:, 0] == 45, 1].tolist() == [44]  # the pin holds
+    assert seen and seen[-1] == 1.0
+
+
 def test_pass2_cost_adds_the_departure_penalty_and_normalised_d1():
     from splicer.align import _pass2_cost
 
@@ -221,6 +245,13 @@ def test_pass2_cost_adds_the_departure_penalty_and_normalised_d1():
     for r, i in enumerate((1, 2)):
         cols = band.lo[i] + np.arange(out.shape[1])
         np.testing.assert_allclose(out[r], 0.5 + 2.0 * np.abs(cols - 2 * i) / 4.0)
+    # a weight below 1 counts too: 0.5 rad per band width
+    out = _pass2_cost(d2, None, 4.0, 0.5, 0.0)(band, 2, 3)
+    np.testing.assert_allclose(out[0], 0.5 * np.abs(band.lo[2] + np.arange(out.shape[1]) - 4) / 4.0)
+    # two body frames: the centre runs from column 0 to m - 1 = 8 in one step
+    b2 = make_band(2, 9, 4.0)
+    out = _pass2_cost(d2, None, 1.0, 1.0, 0.0)(b2, 1, 2)
+    np.testing.assert_allclose(out[0], np.abs(b2.lo[1] + np.arange(out.shape[1]) - 8.0))
     np.testing.assert_array_equal(_pass2_cost(d2, d1, 4.0, 0.0, 0.0)(band, 0, 5), 0.0)
     np.testing.assert_array_equal(_pass2_cost(d2, None, 4.0, 0.0, 1.0)(band, 0, 5), 0.0)
 

@@ -302,3 +302,20 @@ def test_coarse_constraints_by_hand():
     assert coarse_constraints([Constraint(3, 3, 0), Constraint(84, 105, 0)], 3.0, 30, 37) \
         == [Constraint(1, 1, 1), Constraint(28, 35, 1)]
     assert coarse_constraints([Constraint(30, 1, 0), Constraint(30, 30, 0)], 3.0, 30, 37) == [Constraint(10, 10, 1)]
+
+
+def test_guided_band_neighbour_rows_and_delta_by_hand():
+    # n = 9, m = 12, W = 1.1: Delta = 1.1 sqrt(1 + (12/9)^2) / 2 = 0.9167.  Coarse path (factor 2)
+    # (0,0) (1,3) (2,4) (3,5) (4,5): jmin = 0 3 4 5 5.  Row 2 (coarse row 1) takes the
+    # neighbour row 0 too: lo_c = 0 -> lo = 0; row 6 (coarse 3): lo_c = min(5, 4) = 4 ->
+    # floor(8 - 2 - 0.9167) = 5 (a Delta of 1 or more would give 4)
+    cp = np.array([(0, 0), (1, 3), (2, 4), (3, 5), (4, 5)])
+    b = guided_band(cp, 2.0, 9, 12, 1.1)
+    assert b.lo.tolist() == [0, 0, 0, 3, 3, 3, 5, 7, 7]
+    assert b.hi.tolist() == [9, 9, 11, 11, 11, 11, 11, 11, 11]
+    # m = 20: Delta = 1.1 sqrt(1 + (20/9)^2) / 2 = 1.3403; path (0,0) (1,0) (2,1) (3,2) (4,9):
+    # rows 0, 1 (coarse 0, neighbour 1): hi_c = 0 -> ceil(0 + 2 + 1.34) = 4; row 2 (coarse 1,
+    # neighbour 2): hi_c = 1 -> ceil(2 + 2 + 1.34) = 6
+    cp = np.array([(0, 0), (1, 0), (2, 1), (3, 2), (4, 9)])
+    b = guided_band(cp, 2.0, 9, 20, 1.1)
+    assert b.hi.tolist() == [4, 4, 6, 8, 8, 8, 19, 19, 19] and b.lo.tolist() == [0] * 9

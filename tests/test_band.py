@@ -153,3 +153,15 @@ def test_band_sizes_must_be_positive():
         Band(0, 3, 1.0, [], [])
     with pytest.raises(BandError, match=r"lo and hi must have shape \(2,\), got \(2,\) and \(1,\)"):
         Band(2, 3, 1.0, [0, 1], [2])
+
+
+def test_infeasible_adjacent_pins_are_named():
+    # pins on adjacent body frames must be reachable by one step: hands (y - T) - (y' + T') <= 1.
+    # (2, 3 +- 1) -> (3, 5 +- 1): (5 - 1) - (3 + 1) = 0, fine; (3, 5 +- 1) -> (4, 12): 12 - 6 = 6
+    with pytest.raises(ConstraintError) as e:
+        make_band(20, 20, 5.0, [(2, 3, 1), (3, 5, 1), (4, 12, 0)])
+    assert str(e.value) == ("constraints #1 (x=3, y=5, T=1) and #2 (x=4, y=12, T=0) are infeasible: adjacent "
+                            "body frames cannot match hands frames more than T + T' + 1 apart")
+    # a gap of exactly 2: (2, 3) -> (3, 5)
+    with pytest.raises(ConstraintError, match=r"^constraints #0 \(x=2, y=3, T=0\) and #1 \(x=3, y=5, T=0\) are infeasible"):
+        make_band(20, 20, 5.0, [(2, 3), (3, 5)])

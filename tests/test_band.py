@@ -166,6 +166,9 @@ def test_infeasible_adjacent_pins_are_named():
         make_band(20, 20, 5.0, [(2, 3, 1), (3, 5, 1), (4, 12, 0)])
     assert str(e.value) == ("constraints #1 (x=3, y=5, T=1) and #2 (x=4, y=12, T=0) are infeasible: adjacent "
                             "body frames cannot match hands frames more than T + T' + 1 apart")
+    # a gap of exactly 1 is a step: (2, 3) -> (3, 5 +- 1): (5 - 1) - 3 = 1, fine; the culprit is the next pair
+    with pytest.raises(ConstraintError, match=r"^constraints #1 \(x=3, y=5, T=1\) and #2"):
+        make_band(20, 20, 5.0, [(2, 3, 0), (3, 5, 1), (4, 12, 0)])
     # a gap of exactly 2: (2, 3) -> (3, 5)
     with pytest.raises(ConstraintError, match=r"^constraints #0 \(x=2, y=3, T=0\) and #1 \(x=3, y=5, T=0\) are infeasible"):
         make_band(20, 20, 5.0, [(2, 3), (3, 5)])

@@ -209,6 +209,30 @@ def test_pass2_of_identical_takes_and_its_weights():
     assert with_d1.cost == pytest.approx(_path_cost(with_d1)) and with_d1.cost > pr.cost
 
 
+def test_pass2_local_costs_are_d2_plus_the_weights_it_is_given():
+    from splicer.align.passes import pass2
+    from splicer.align.costs import d1_cost, d2_cost, palm_features, phase_features
+
+    body, hands, truth = _warped()
+    from splicer.align.passes import warp_markers
+    on = warp_markers(hands, truth)
+    d2 = d2_cost(palm_features(body.points), palm_features(on.points))
+    plain = pass2(body, on, width=1.5)  # the defaults: the paper's literal pass 2, D2 alone
+    np.testing.assert_array_equal(plain.local_cost(plain.band, 0, 90), d2(plain.band, 0, 90))
+    # weights: 0.7 rad per band width of 1.5 frames, and D1 (heading, own smoothing) / 24 x 2
+    seen = []
+    pr = pass2(body, on, width=1.5, diagonal_weight=0.7, d1_weight=2.0, smooth_s=0.2, dead_zone=0.3,
+               theta="heading", constraints=[Constraint(45, 44, 0)], progress=seen.append)
+    d1 = d1_cost(phase_features(body, smooth_s=0.2, dead_zone=0.3), phase_features(on, smooth_s=0.2, dead_zone=0.3),
+                 theta="heading")
+    band = pr.band
+    cols = band.lo[:, None] + np.arange(band.max_row_width)[None, :]
+    want = d2(band, 0, 90) + (2.0 / 24.0) * d1(band, 0, 90) + 0.7 * np.abs(cols - np.arange(90)[:, None]) / 1.5
+    np.testing.assert_allclose(pr.local_cost(band, 0, 90), want, rtol=1e-12)
+    assert pr.path[pr.path[:, 0] == 45, 1].tolist() == [44]  # the pin holds
+    assert seen and seen[-1] == 1.0
+
+
 def test_pass2_cost_adds_the_departure_penalty_and_normalised_d1():
     from splicer.align.passes import _pass2_cost
 
@@ -221,6 +245,13 @@ def test_pass2_cost_adds_the_departure_penalty_and_normalised_d1():
     for r, i in enumerate((1, 2)):
         cols = band.lo[i] + np.arange(out.shape[1])
         np.testing.assert_allclose(out[r], 0.5 + 2.0 * np.abs(cols - 2 * i) / 4.0)
+    # a weight below 1 counts too: 0.5 rad per band width
+    out = _pass2_cost(d2, None, 4.0, 0.5, 0.0)(band, 2, 3)
+    np.testing.assert_allclose(out[0], 0.5 * np.abs(band.lo[2] + np.arange(out.shape[1]) - 4) / 4.0)
+    # two body frames: the centre runs from column 0 to m - 1 = 8 in one step
+    b2 = make_band(2, 9, 4.0)
+    out = _pass2_cost(d2, None, 1.0, 1.0, 0.0)(b2, 1, 2)
+    np.testing.assert_allclose(out[0], np.abs(b2.lo[1] + np.arange(out.shape[1]) - 8.0))
     np.testing.assert_array_equal(_pass2_cost(d2, d1, 4.0, 0.0, 0.0)(band, 0, 5), 0.0)
     np.testing.assert_array_equal(_pass2_cost(d2, None, 4.0, 0.0, 1.0)(band, 0, 5), 0.0)
 
@@ -244,3 +275,47 @@ def test_guided_band_by_hand():
     #   lo = floor(2 lo_c - 4.5) -> all 0; hi = ceil(2 hi_c + 4.5) = 7 7 7 9 9 9 13 -> 11
     b = guided_band(cp, 2.0, 9, 12, 3.0)
     assert b.lo.tolist() == [0] * 9 and b.hi.tolist() == [7, 7, 7, 9, 9, 9, 11, 11, 11]
+
+
+def test_coarse_constraints_by_hand():
+    from splicer.align.passes import coarse_constraints
+
+    # factor 3, coarse lengths n = 30, m = 37 (full-rate 90 x 110):
+    # (45, 60, T=0) -> (15, 20), T = ceil(0 / 3) + 1 = 1
+    # (46, 61, T=4) -> (round(15.33), round(20.33)) = (15, 20): does not follow -> dropped
+    # (50, 70, T=7) -> (round(16.67), round(23.33)) = (17, 23), T = ceil(7 / 3) + 1 = 4
+    # (88, 80, T=0) -> (29, 27): x on the last coarse frame (n - 1 = 29) -> dropped
+    # ( 1, 40, T=0) -> (0, 13): x on the first coarse frame -> dropped
+    # (60, 109, T=2) -> (20, 36): y on the last coarse frame (m - 1 = 36) -> dropped
+    # (66, 100, T=2) -> (22, 33), T = 2
+    cons = [Constraint(45, 60, 0), Constraint(46, 61, 4), Constraint(50, 70, 7), Constraint(88, 80, 0)]
+    assert coarse_constraints(cons, 3.0, 30, 37) == [Constraint(15, 20, 1), Constraint(17, 23, 4)]
+    assert coarse_constraints([Constraint(1, 40, 0), Constraint(60, 109, 2), Constraint(66, 100, 2)], 3.0, 30, 37) \
+        == [Constraint(22, 33, 2)]
+    # y must increase too: (57, 63) -> (19, 21) is kept after (15, 20); (60, 63) -> (20, 21) has
+    # the same y and (46, 66) -> (15, 22) the same x as the pair before: dropped
+    got = coarse_constraints([Constraint(45, 60, 0), Constraint(46, 66, 0), Constraint(57, 63, 0),
+                              Constraint(60, 63, 0)], 3.0, 30, 37)
+    assert got == [Constraint(15, 20, 1), Constraint(19, 21, 1)]
+    # the first and last inner coarse frames are kept: (3, 3) -> (1, 1), (84, 105) -> (28, 35);
+    # y on the first coarse frame is not: (30, 1) -> (10, 0)
+    assert coarse_constraints([Constraint(3, 3, 0), Constraint(84, 105, 0)], 3.0, 30, 37) \
+        == [Constraint(1, 1, 1), Constraint(28, 35, 1)]
+    assert coarse_constraints([Constraint(30, 1, 0), Constraint(30, 30, 0)], 3.0, 30, 37) == [Constraint(10, 10, 1)]
+
+
+def test_guided_band_neighbour_rows_and_delta_by_hand():
+    # n = 9, m = 12, W = 1.1: Delta = 1.1 sqrt(1 + (12/9)^2) / 2 = 0.9167.  Coarse path (factor 2)
+    # (0,0) (1,3) (2,4) (3,5) (4,5): jmin = 0 3 4 5 5.  Row 2 (coarse row 1) takes the
+    # neighbour row 0 too: lo_c = 0 -> lo = 0; row 6 (coarse 3): lo_c = min(5, 4) = 4 ->
+    # floor(8 - 2 - 0.9167) = 5 (a Delta of 1 or more would give 4)
+    cp = np.array([(0, 0), (1, 3), (2, 4), (3, 5), (4, 5)])
+    b = guided_band(cp, 2.0, 9, 12, 1.1)
+    assert b.lo.tolist() == [0, 0, 0, 3, 3, 3, 5, 7, 7]
+    assert b.hi.tolist() == [9, 9, 11, 11, 11, 11, 11, 11, 11]
+    # m = 20: Delta = 1.1 sqrt(1 + (20/9)^2) / 2 = 1.3403; path (0,0) (1,0) (2,1) (3,2) (4,9):
+    # rows 0, 1 (coarse 0, neighbour 1): hi_c = 0 -> ceil(0 + 2 + 1.34) = 4; row 2 (coarse 1,
+    # neighbour 2): hi_c = 1 -> ceil(2 + 2 + 1.34) = 6
+    cp = np.array([(0, 0), (1, 0), (2, 1), (3, 2), (4, 9)])
+    b = guided_band(cp, 2.0, 9, 20, 1.1)
+    assert b.hi.tolist() == [4, 4, 6, 8, 8, 8, 19, 19, 19] and b.lo.tolist() == [0] * 9

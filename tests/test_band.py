@@ -78,6 +78,8 @@ def test_make_band_refuses_bad_sizes_and_widths(args, match):
     ([(2, 2), (2, 3)], r"constraint #1 \(x=2, y=3\) does not follow constraint #0 \(x=2, y=2\)"),
     ([(2, 3), (3, 2)], r"constraint #1 \(x=3, y=2\) does not follow .* not decrease in y"),
     ([(2.5, 2)], r"x=2.5 must be an integer frame"),
+    ([(2, 2.5)], r"^constraint #0: y=2.5 must be an integer frame$"),
+    ([(2, 2, 0.5)], r"^constraint #0: tolerance=0.5 must be an integer frame$"),
     ([(2,)], r"constraint #0: expected \(x, y\[, T\]\)"),
     ([5], r"constraint #0: expected \(x, y\[, T\]\)"),
 ])
@@ -128,8 +130,10 @@ def test_seconds_need_a_real_frame_rate(fps):
 
 
 @pytest.mark.parametrize("n,m,lo,hi,message", [
-    (2, 3, [1, 1], [1, 2], "invalid band at row 0: lo[0] must be 0, got 1"),
-    (2, 3, [0, 1], [1, 1], "invalid band at row 1: hi[1] must be m - 1 = 2, got 1"),
+    (2, 4, [2, 3], [3, 3], "invalid band at row 0: lo[0] must be 0, got 2"),
+    (2, 3, [0, 1], [0, 1], "invalid band at row 1: hi[1] must be m - 1 = 2, got 1"),
+    (4, 4, [0, 0, 0, 0], [2, 3, 2, 3], "invalid band at row 2: hi decreases"),
+    (2, 3, [0, 2], [0, 2], "invalid band at row 1: lo[i] > hi[i-1] + 1 (rows do not connect)"),
     (3, 3, [0, -1, 0], [0, 1, 2], "invalid band at row 1: lo < 0"),
     (3, 3, [0, 1, 1], [1, 3, 2], "invalid band at row 1: hi > m - 1"),
     (3, 4, [0, 2, 2], [1, 1, 3], "invalid band at row 1: lo > hi"),
@@ -154,3 +158,36 @@ def test_band_sizes_must_be_positive():
         Band(0, 3, 1.0, [], [])
     with pytest.raises(BandError, match=r"lo and hi must have shape \(2,\), got \(2,\) and \(1,\)"):
         Band(2, 3, 1.0, [0, 1], [2])
+
+
+def test_infeasible_adjacent_pins_are_named():
+    # pins on adjacent body frames must be reachable by one step: hands (y - T) - (y' + T') <= 1.
+    # (2, 3 +- 1) -> (3, 5 +- 1): (5 - 1) - (3 + 1) = 0, fine; (3, 5 +- 1) -> (4, 12): 12 - 6 = 6
+    with pytest.raises(ConstraintError) as e:
+        make_band(20, 20, 5.0, [(2, 3, 1), (3, 5, 1), (4, 12, 0)])
+    assert str(e.value) == ("constraints #1 (x=3, y=5, T=1) and #2 (x=4, y=12, T=0) are infeasible: adjacent "
+                            "body frames cannot match hands frames more than T + T' + 1 apart")
+    # a gap of exactly 1 is a step: (2, 3) -> (3, 5 +- 1): (5 - 1) - 3 = 1, fine; the culprit is the next pair
+    with pytest.raises(ConstraintError, match=r"^constraints #1 \(x=3, y=5, T=1\) and #2"):
+        make_band(20, 20, 5.0, [(2, 3, 0), (3, 5, 1), (4, 12, 0)])
+    # a gap of exactly 2: (2, 3) -> (3, 5)
+    with pytest.raises(ConstraintError, match=r"^constraints #0 \(x=2, y=3, T=0\) and #1 \(x=3, y=5, T=0\) are infeasible"):
+        make_band(20, 20, 5.0, [(2, 3), (3, 5)])
+
+
+def test_cells_exactly_on_the_border_are_inside():
+    # n = m = 3, W = sqrt 2: Delta = sqrt(2) sqrt(8) / 4 = 1 (to rounding): the cells at
+    # distance exactly 1 from the diagonal are in the band: lo = 0 0 1, hi = 1 2 2
+    import math
+
+    b = make_band(3, 3, math.sqrt(2))
+    assert b.lo.tolist() == [0, 0, 1] and b.hi.tolist() == [1, 2, 2]
+
+
+def test_band_record_normalises_its_fields_and_leaves_the_inputs_alone():
+    lo, hi = np.array([0, 0, 1]), np.array([1.0, 2.0, 2.0])
+    b = Band(np.int64(3), np.int64(3), 1, lo, hi, [Constraint(1, 1, 0)])
+    assert type(b.n) is int and type(b.m) is int and type(b.width) is float
+    assert b.constraints == (Constraint(1, 1, 0),) and isinstance(b.constraints, tuple)
+    assert b.lo.dtype == np.int64 and b.hi.dtype == np.int64
+    assert lo.flags.writeable and hi.flags.writeable  # copies were made read-only, not the inputs

@@ -5,8 +5,9 @@
 * ```sh blocks: each ``splice`` command runs as ``python -m splicer.cli`` in such a folder and
   must exit 0 and write what it names.  Lines that set up an environment (``python3 -m venv``,
   ``pip install``) are skipped: the tests already run inside one.  The line that runs the test
-  suite is skipped (it would run this test again), and so is ``splicer-evaluate`` (minutes on
-  the real capture in ../shared; benchmarks/ holds its output).
+  suite is skipped (it would run this test again), and so are ``splicer-evaluate`` (minutes on
+  the real capture in ../shared; benchmarks/ holds its output) and ``mutmut`` (tens of minutes;
+  tests/mutation_survivors.md holds its result).
 * ```yaml blocks are constraints files: they must parse (:func:`splicer.io.config.parse_config`).
 
 A block in another language (the JSON report sketch with ``...``, the diagram) is not code.
@@ -92,6 +93,7 @@ _SKIPPED = {
     "pytest": "runs the test suite, which would run this test again",
     "splicer-evaluate": "the evaluation on ../shared's real capture takes minutes; benchmarks/ holds its output",
     "benchmark": "a benchmark takes minutes; benchmarks/ holds its output",
+    "mutmut": "mutation testing runs for tens of minutes; tests/mutation_survivors.md holds its result",
 }
 
 
@@ -110,8 +112,8 @@ def _commands(block: str) -> list[tuple[str, list[str] | None]]:
                 out.append((cmd, _SKIPPED["pip"]))
             elif prog.startswith("python") and "pytest" in argv:
                 out.append((cmd, _SKIPPED["pytest"]))
-            elif prog == "splicer-evaluate":
-                out.append((cmd, _SKIPPED["splicer-evaluate"]))
+            elif prog in ("splicer-evaluate", "mutmut"):
+                out.append((cmd, _SKIPPED[prog]))
             elif prog.startswith("python") and len(argv) > 1 and argv[1].startswith("benchmarks/"):
                 out.append((cmd, _SKIPPED["benchmark"]))
             elif prog == "splice":

@@ -299,6 +299,13 @@ def test_hand_frame_narrow_hand_and_first_segments():
     # index and pinky bases 0.5 apart: still an across-the-palm axis (|u x v| = 0.5 > 1e-9)
     sk, arm = _flat_hand({"index": (9.0, 0.25, 0.0), "middle": (10.0, 0.0, 0.0), "pinky": (9.0, -0.25, 0.0)})
     np.testing.assert_allclose(hand_frame(sk, arm), np.eye(3), atol=1e-12)
+    # a hand in metres (bases a hundredth of the above): |u x v| = 0.1 x 0.04 is small but not 0
+    sk, arm = _flat_hand({f: tuple(0.01 * np.array(p)) for f, p in PALM_Z.items()})
+    np.testing.assert_allclose(hand_frame(sk, arm), np.eye(3), atol=1e-12)
+    # an index finger but no ulnar finger: the other knuckles (here the middle's) stand in for the
+    # ulnar side: v = index - middle = (-1, 2, 0), minus its part along u = +X: +Y; n = X x Y = +Z
+    sk, arm = _flat_hand({"index": (9.0, 2.0, 0.0), "middle": (10.0, 0.0, 0.0)})
+    np.testing.assert_allclose(hand_frame(sk, arm), np.eye(3), atol=1e-12)
     # the bases are the chains' first joints: second joints bent out of the palm change nothing
     sk, arm = _flat_hand(PALM_Z, second={f: (2.0, 0.0, 2.0 + k) for k, f in enumerate(PALM_Z)})
     np.testing.assert_allclose(hand_frame(sk, arm), np.eye(3), atol=1e-12)

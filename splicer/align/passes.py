@@ -23,7 +23,7 @@ from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT,
 from ..transfer.sampling import sample_linear
 
 __all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
-           "remap_constraints", "warp_markers", "hold_ends"]
+           "remap_constraints", "warp_markers", "coarse_constraints", "hold_ends"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -157,6 +157,20 @@ def guided_band(coarse_path: np.ndarray, factor: float, n: int, m: int, width: f
     lo, hi = _trim(lo, hi)
     return Band(n=n, m=m, width=width, lo=lo, hi=hi, constraints=tuple(constraints), open_begin=open_begin,
                 open_end=open_end)
+
+
+def coarse_constraints(constraints, factor: float, n: int, m: int) -> list[Constraint]:
+    """Constraints brought to a coarse rate (``factor`` full-rate frames per coarse frame).
+
+    Each pair is rounded to the nearest coarse frames and its tolerance widened to
+    ``ceil(T / factor) + 1`` coarse frames (the rounding may move it by one); pairs that land on
+    a coarse end frame (``0``, ``n - 1``, ``m - 1``) or do not follow the previous kept pair
+    in both coordinates are dropped (the full-rate pass still honours them).
+
+    >>> coarse_constraints([Constraint(45, 60, 0), Constraint(46, 61, 4)], 3.0, 30, 37)
+    [Constraint(x=15, y=20, tolerance=1)]
+    """
+    return _coarse_constraints(constraints, factor, n, m)
 
 
 def _coarse_constraints(constraints, factor, nc, mc):

@@ -366,7 +366,9 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
     """A ``distributed.Client``: to ``scheduler`` (an address) or to a new local cluster.
 
     The local cluster has ``workers`` single-threaded worker processes (all cores by default)
-    and no dashboard; it is shut down on exit.
+    and its HTTP server on a free port; it is shut down on exit.  Its workers keep glibc's
+    default memory trimming (Dask's ``MALLOC_TRIM_THRESHOLD_=65536`` costs a splice 12-15 %
+    more CPU).
     """
     try:
         from distributed import Client, LocalCluster
@@ -384,10 +386,18 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
         return
     import logging
 
+    import dask
+
     n = workers or os.cpu_count() or 1
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, \
-            Client(cluster) as client:
+    # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (memory back to the OS sooner);
+    # that fixes glibc's mmap threshold too, so every large array of a splice is mapped, faulted
+    # in and unmapped again: 12-15 % more CPU per pair (bench_batch.py).  Not for our workers.
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        # ":0": any free port (the scheduler serves HTTP even without the dashboard; the default
+        # :8787 may be taken by another cluster on this machine)
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0",
+                               silence_logs=logging.ERROR)
+    with cluster, Client(cluster) as client:
         yield client
 
 

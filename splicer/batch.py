@@ -515,8 +515,9 @@ def pair_folders(body_dir, hands_dir, out_dir, client, *, fps: float = 5.0, marg
           cost_table_markdown(costs, bodies, hands), "", "| hands | body | cost | runner-up | margin | decision |",
           "|---|---|---:|---:|---:|---|"]
     for dcs in decisions:
+        mg = f"{100 * dcs.margin:.0f}%" if math.isfinite(dcs.margin) else "-"
         md.append(f"| {Path(dcs.hands).name} | {Path(dcs.body).name if dcs.body else '-'} | {dcs.cost:.3g} | "
-                  f"{dcs.second:.3g} | {100 * dcs.margin:.0f}% | {dcs.reason} |")
+                  f"{dcs.second:.3g} | {mg} | {dcs.reason} |")
     for path, err in sig_errors.items():
         md.append(f"\n- {Path(path).name}: {err}")
     _write_atomic(out / "pairing.md", "\n".join(md) + "\n")

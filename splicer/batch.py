@@ -36,180 +36,13 @@ import tempfile
 import time
 import uuid
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import SplicerError
+from .manifest import ManifestError, PairJob, read_manifest  # re-exported: the batch API in one place
 
 __all__ = ["PairJob", "ManifestError", "read_manifest", "job_hash", "is_finished", "run_pair", "run_batch",
            "pair_folders", "dask_client", "write_summary", "main"]
-
-_PAIR_KEYS = {"name", "body", "hands", "constraints", "output", "options"}
-
-
-class ManifestError(SplicerError):
-    """The manifest is malformed (the message names file and line)."""
-
-
-@dataclass(frozen=True)
-class PairJob:
-    """One pair to splice.
-
-    Attributes
-    ----------
-    name : str
-        Unique in the batch; names the report and plot.
-    body, hands : str
-        Input BVH paths (absolute).
-    output : str
-        Output BVH path (absolute).
-    constraints : str or None
-        Constraints file (absolute).
-    options : dict
-        :class:`~splicer.options.SpliceOptions` fields for this pair.
-    line : int
-        Line of the entry in the manifest (0 for pairs found by pairing).
-    """
-
-    name: str
-    body: str
-    hands: str
-    output: str
-    constraints: str | None = None
-    options: dict = field(default_factory=dict)
-    line: int = 0
-
-
-# ---------------------------------------------------------------- manifest
-
-def _check_options(opts: dict, where: str) -> dict:
-    from .options import resolve_options
-
-    try:
-        resolve_options(None, dict(opts))
-    except (TypeError, SplicerError) as e:
-        raise ManifestError(f"{where}: {e}") from None
-    return dict(opts)
-
-
-def _make_job(entry: dict, base: Path, defaults: dict, where: str, line: int) -> PairJob:
-    unknown = sorted(set(entry) - _PAIR_KEYS)
-    if unknown:
-        raise ManifestError(f"{where}: unknown key(s) {', '.join(unknown)}; expected {', '.join(sorted(_PAIR_KEYS))}")
-    for k in ("body", "hands", "output"):
-        if not entry.get(k):
-            raise ManifestError(f"{where}: '{k}' is missing")
-
-    def path(v):
-        p = Path(str(v)).expanduser()
-        return str(p if p.is_absolute() else (base / p).resolve())
-
-    opts = entry.get("options") or {}
-    if not isinstance(opts, dict):
-        raise ManifestError(f"{where}: 'options' must be a mapping of option names to values")
-    out = path(entry["output"])
-    name = str(entry.get("name") or Path(out).stem)
-    cons = entry.get("constraints")
-    return PairJob(name, path(entry["body"]), path(entry["hands"]), out, path(cons) if cons else None,
-                   _check_options({**defaults, **opts}, where), line)
-
-
-def _parse_cell_options(text: str, where: str) -> dict:
-    import yaml
-
-    opts = {}
-    for part in filter(None, (p.strip() for p in (text or "").split(";"))):
-        if "=" not in part:
-            raise ManifestError(f"{where}: options: expected key=value, found {part!r}")
-        k, v = (s.strip() for s in part.split("=", 1))
-        opts[k] = yaml.safe_load(v) if v else None
-    return opts
-
-
-def read_manifest(path) -> list[PairJob]:
-    """Read a YAML or CSV manifest.
-
-    YAML: a list of pairs, or ``{options: {...}, pairs: [...]}`` with ``options`` applied to
-    every pair.  CSV: a header with ``body,hands,output`` and optionally ``constraints``,
-    ``name``, ``options`` (``key=value; key=value``).
-
-    Raises
-    ------
-    ManifestError
-        Unreadable or malformed manifest, an unknown option, duplicate names or outputs;
-        the message names the file and line.
-    """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise ManifestError(f"{p}: manifest not found") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise ManifestError(f"{p}: cannot read the manifest ({e})") from None
-    base = p.resolve().parent
-    jobs = []
-    if p.suffix.lower() == ".csv":
-        reader = csv.DictReader(io.StringIO(text))
-        cols = set(reader.fieldnames or [])
-        missing = {"body", "hands", "output"} - cols
-        if missing:
-            raise ManifestError(f"{p}, line 1: the header lacks {', '.join(sorted(missing))} "
-                                f"(columns: body, hands, output, constraints, name, options)")
-        for row in reader:
-            line = reader.line_num
-            where = f"{p}, line {line}"
-            entry = {k: (v.strip() if isinstance(v, str) else v) for k, v in row.items() if k and v not in (None, "")}
-            if not entry:
-                continue
-            if "options" in entry:
-                entry["options"] = _parse_cell_options(entry["options"], where)
-            jobs.append(_make_job(entry, base, {}, where, line))
-    else:
-        import yaml
-
-        try:
-            root = yaml.compose(text, Loader=yaml.SafeLoader)
-        except yaml.YAMLError as e:
-            mark = getattr(e, "problem_mark", None)
-            raise ManifestError(f"{p}{f', line {mark.line + 1}' if mark else ''}: not valid YAML "
-                                f"({getattr(e, 'problem', None) or e})") from None
-        defaults = {}
-        if isinstance(root, yaml.MappingNode):
-            top = {k.value: v for k, v in root.value}
-            extra = sorted(set(top) - {"pairs", "options"})
-            if extra or "pairs" not in top:
-                raise ManifestError(f"{p}, line {root.start_mark.line + 1}: expected 'pairs:' (and optionally "
-                                    f"'options:') at the top level" + (f", found {', '.join(extra)}" if extra else ""))
-            if "options" in top:
-                defaults = yaml.safe_load(yaml.serialize(top["options"])) or {}
-                if not isinstance(defaults, dict):
-                    raise ManifestError(f"{p}, line {top['options'].start_mark.line + 1}: 'options' must be a mapping")
-            root = top["pairs"]
-        if not isinstance(root, yaml.SequenceNode):
-            line = root.start_mark.line + 1 if root is not None else 1
-            raise ManifestError(f"{p}, line {line}: expected a list of pairs (body, hands, output, ...)")
-        for node in root.value:
-            line = node.start_mark.line + 1
-            entry = yaml.safe_load(yaml.serialize(node))
-            if not isinstance(entry, dict):
-                raise ManifestError(f"{p}, line {line}: a pair is a mapping with body, hands, output")
-            jobs.append(_make_job(entry, base, defaults, f"{p}, line {line}", line))
-    _check_unique(jobs, str(p))
-    return jobs
-
-
-def _check_unique(jobs: list[PairJob], source: str) -> None:
-    for attr in ("name", "output"):
-        seen = {}
-        for j in jobs:
-            v = getattr(j, attr)
-            if v in seen:
-                raise ManifestError(f"{source}, line {j.line}: {attr} {v!r} is used twice (first at line {seen[v]})")
-            seen[v] = j.line
-    inputs = {j.body for j in jobs} | {j.hands for j in jobs} | {j.constraints for j in jobs}
-    for j in jobs:
-        if j.output in inputs:
-            raise ManifestError(f"{source}, line {j.line}: output {j.output} is an input of the batch")
 
 
 # ---------------------------------------------------------------- resume
@@ -261,6 +94,11 @@ def _write_atomic(path: Path, text: str) -> None:
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
+        try:  # mkstemp makes 0600; a report is as readable as the file it replaces, else rw-r--r--
+            mode = path.stat().st_mode & 0o777
+        except OSError:
+            mode = 0o644
+        os.chmod(tmp, mode)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -366,7 +204,9 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
     """A ``distributed.Client``: to ``scheduler`` (an address) or to a new local cluster.
 
     The local cluster has ``workers`` single-threaded worker processes (all cores by default)
-    and no dashboard; it is shut down on exit.
+    and its HTTP server on a free port; it is shut down on exit.  Its workers keep glibc's
+    default memory trimming (Dask's ``MALLOC_TRIM_THRESHOLD_=65536`` costs a splice 12-15 %
+    more CPU).
     """
     try:
         from distributed import Client, LocalCluster
@@ -384,10 +224,18 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
         return
     import logging
 
+    import dask
+
     n = workers or os.cpu_count() or 1
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, \
-            Client(cluster) as client:
+    # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (memory back to the OS sooner);
+    # that fixes glibc's mmap threshold too, so every large array of a splice is mapped, faulted
+    # in and unmapped again: 12-15 % more CPU per pair (bench_batch.py).  Not for our workers.
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        # ":0": any free port (the scheduler serves HTTP even without the dashboard; the default
+        # :8787 may be taken by another cluster on this machine)
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0",
+                               silence_logs=logging.ERROR)
+    with cluster, Client(cluster) as client:
         yield client
 
 
@@ -505,8 +353,9 @@ def pair_folders(body_dir, hands_dir, out_dir, client, *, fps: float = 5.0, marg
           cost_table_markdown(costs, bodies, hands), "", "| hands | body | cost | runner-up | margin | decision |",
           "|---|---|---:|---:|---:|---|"]
     for dcs in decisions:
+        mg = f"{100 * dcs.margin:.0f}%" if math.isfinite(dcs.margin) else "-"
         md.append(f"| {Path(dcs.hands).name} | {Path(dcs.body).name if dcs.body else '-'} | {dcs.cost:.3g} | "
-                  f"{dcs.second:.3g} | {100 * dcs.margin:.0f}% | {dcs.reason} |")
+                  f"{dcs.second:.3g} | {mg} | {dcs.reason} |")
     for path, err in sig_errors.items():
         md.append(f"\n- {Path(path).name}: {err}")
     _write_atomic(out / "pairing.md", "\n".join(md) + "\n")

@@ -25,7 +25,7 @@ MOTIONS = Path(__file__).resolve().parents[1] / "motions"
 
 @pytest.fixture(scope="module")
 def client():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c, \
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0") as c, \
             distributed.Client(c) as cl:
         yield cl
 

@@ -32,13 +32,13 @@ import json
 import math
 import os
 import sys
-import tempfile
 import time
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
 
 from .errors import SplicerError
+from .io.atomic import write_text_atomic
 from .manifest import ManifestError, PairJob, read_manifest  # re-exported: the batch API in one place
 
 __all__ = ["PairJob", "ManifestError", "read_manifest", "job_hash", "is_finished", "run_pair", "run_batch",
@@ -89,20 +89,10 @@ def is_finished(job: PairJob, out_dir: Path, digest: str | None = None) -> dict 
 
 
 def _write_atomic(path: Path, text: str) -> None:
+    """``text`` to ``path`` through the package's one atomic writer (a replaced file keeps its
+    mode), creating the folder first."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        try:  # mkstemp makes 0600; a report is as readable as the file it replaces, else rw-r--r--
-            mode = path.stat().st_mode & 0o777
-        except OSError:
-            mode = 0o644
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_text_atomic(path, text)
 
 
 # ---------------------------------------------------------------- one pair (a Dask task)

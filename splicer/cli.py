@@ -20,7 +20,7 @@ import time
 import warnings
 from pathlib import Path
 
-from .io.atomic import Transaction, write_atomic
+from .io.atomic import Transaction, write_text_atomic
 from .errors import SplicerError
 from .io.limits import one_line, shorten
 
@@ -148,8 +148,7 @@ def _check_output(path: Path, inputs) -> None:
 
 
 def _write_json(obj, path: Path) -> None:
-    text = json.dumps(obj, indent=1)
-    write_atomic(path, lambda f: f.write(text.encode("utf-8")), what="report")
+    write_text_atomic(path, json.dumps(obj, indent=1), what="report")
 
 
 def _check_distinct(outputs: list[tuple[str, str]]) -> None:

@@ -20,7 +20,6 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 import time
 import warnings
 from dataclasses import dataclass, replace
@@ -29,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SplicerError
+from .io.atomic import write_text_atomic
 
 __all__ = ["MarkerAlignment", "align_marker_files", "retime", "main"]
 
@@ -245,16 +245,7 @@ def _check_output(path: Path, inputs) -> None:
 
 
 def _write_json(obj, path: Path) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent if str(path.parent) else ".")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(obj, f, indent=1)
-        os.replace(tmp, path)
-    except OSError as e:
-        raise SplicerError(f"{path}: cannot write the report ({e.strerror or e})") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_text_atomic(path, json.dumps(obj, indent=1), what="report")
 
 
 def main(argv=None) -> int:

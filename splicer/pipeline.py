@@ -488,7 +488,7 @@ def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) ->
     np.ndarray [shape=(n_body,), dtype=float64]
         Non-decreasing over the covered frames, within ``[0, n_hands - 1]``; NaN elsewhere.
     """
-    from .transfer.timemap import hold_pins, pin_constraints, smooth_time_map
+    from .transfer.timemap import pin_constraints, smooth_time_map
 
     sp = markers.spaces
     n = len(alignment.per_frame)
@@ -496,12 +496,12 @@ def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) ->
     hands_frames = sp.common_to_hands(alignment.per_frame[a:b + 1])
     pins = [(p.body - a, float(p.hands), float(p.tolerance)) for p in markers.pins if a <= p.body <= b]
     last = sp.n_hands - 1
-    if opts.merge == "timemap":
-        seg = smooth_time_map(hands_frames, sigma_frames=opts.timemap_sigma_s * sp.body_fps, last=last, pins=pins)
-    else:
-        seg = np.clip(pin_constraints(hands_frames, pins), 0, last)
     tm = np.full(n, np.nan)
-    tm[a:b + 1] = hold_pins(seg, pins, last=last)
+    if opts.merge == "timemap":  # both keep every pin within its window (pin_constraints)
+        tm[a:b + 1] = smooth_time_map(hands_frames, sigma_frames=opts.timemap_sigma_s * sp.body_fps, last=last,
+                                      pins=pins)
+    else:
+        tm[a:b + 1] = np.clip(pin_constraints(hands_frames, pins), 0, last)
     return tm
 
 

@@ -105,7 +105,6 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     axes = fig.subplots(len(sides), ncols, squeeze=False)
     for row, s in zip(axes, sides):
         n = len(s.hands_frame)
-        m = s.hands_markers.n_frames
         cons = s.alignment.constraints
         k = 0
         if s.pass1 is not None:

@@ -17,13 +17,26 @@ import numpy as np
 __all__ = ["SideReport", "Report"]
 
 
+class _DictView(Mapping):
+    """Read-only mapping over ``to_dict()`` (the JSON form), shared by both report classes."""
+
+    def __getitem__(self, key):
+        return self.to_dict()[key]
+
+    def __iter__(self):
+        return iter(self.to_dict())
+
+    def __len__(self) -> int:
+        return len(self.to_dict())
+
+
 def _round_list(a, digits=4) -> list:
     """Numbers rounded for JSON; NaN (no value, e.g. an uncovered frame) becomes None (null)."""
     return [round(float(v), digits) if np.isfinite(v) else None for v in np.asarray(a, dtype=np.float64)]
 
 
 @dataclass(frozen=True, eq=False)
-class SideReport(Mapping):
+class SideReport(_DictView):
     """What the report says about one side.
 
     Attributes
@@ -55,22 +68,13 @@ class SideReport(Mapping):
         d.update(self.extra)
         return d
 
-    def __getitem__(self, key):
-        return self.to_dict()[key]
-
-    def __iter__(self):
-        return iter(self.to_dict())
-
-    def __len__(self) -> int:
-        return len(self.to_dict())
-
     def __repr__(self) -> str:
         return (f"SideReport(side={self.side!r}, body_frames={len(self.hands_frame)}, pins={len(self.pins)}, "
                 f"joints={len(self.joints)})")
 
 
 @dataclass(frozen=True, eq=False)
-class Report(Mapping):
+class Report(_DictView):
     """The report of one splice.
 
     Attributes
@@ -113,15 +117,9 @@ class Report(Mapping):
         return json.dumps(self.to_dict(), indent=indent)
 
     def __getitem__(self, key):
-        if key == "sides":
+        if key == "sides":  # the typed per-side reports, not their JSON
             return self.sides
-        return self.to_dict()[key]
-
-    def __iter__(self):
-        return iter(self.to_dict())
-
-    def __len__(self) -> int:
-        return len(self.to_dict())
+        return super().__getitem__(key)
 
     def __repr__(self) -> str:
         return (f"Report(body={self.body.get('frames')} frames @ {self.body.get('fps')} fps, "

@@ -45,7 +45,7 @@ from ..errors import SplicerError
 from ..model.motion import Motion
 from ..rig.roles import find_roles
 from ..model.rotations import quat_angle_deg
-from .separate import hand_only_files, mirror_motion, moving_finger_joints, separate
+from .separate import hand_only_files, mirror_motion, protocol_joints, separate
 from ..pipeline import splice
 from ..transfer.sampling import sample_rotations
 
@@ -172,10 +172,7 @@ def evaluate_pair(take: Motion, sep, *, methods=METHODS, generic_window: int | N
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise SplicerError(f"unknown method(s) {unknown}; choose from {list(METHODS)}")
-    roles = find_roles(take.skeleton, source=take.source)
-    moving = moving_finger_joints(take, roles)
-    if not moving:
-        raise SplicerError(f"{take.source or 'take'}: no finger joint moves; the protocol needs moving fingers")
+    roles, moving = protocol_joints(take)
     ref = take.rotations[:, moving]
     n = take.n_frames
     body, hands, truth = sep.body, sep.hands, sep.truth

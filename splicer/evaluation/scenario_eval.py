@@ -41,10 +41,9 @@ import pandas as pd
 from .baselines import generic_dtw_frames, oracle_frames, uniform_frames
 from ..errors import SplicerError
 from ..model.motion import Motion
-from ..rig.roles import find_roles
 from ..model.rotations import quat_angle_deg
 from .scenarios import SCENARIOS, ScenarioSeparation, alignment_error_s, make_scenario, scenario, write_scenario
-from .separate import moving_finger_joints
+from .separate import protocol_joints
 from ..pipeline import splice
 from ..transfer.sampling import sample_rotations
 
@@ -237,10 +236,7 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
     unknown = [m for m in methods if m not in SCENARIO_METHODS]
     if unknown:
         raise SplicerError(f"unknown method(s) {unknown}; choose from {list(SCENARIO_METHODS)}")
-    roles = find_roles(take.skeleton, source=take.source)
-    moving = moving_finger_joints(take, roles)
-    if not moving:
-        raise SplicerError(f"{take.source or 'take'}: no finger joint moves; the protocol needs moving fingers")
+    roles, moving = protocol_joints(take)
     ref = sample_rotations(take.rotations[:, moving], sep.body_time)
     body, hands = sep.body, sep.hands
     n, fb = body.n_frames, body.fps

@@ -30,7 +30,7 @@ from ..transfer.sampling import resample_motion
 from .warps import smooth_monotone_warp, smooth_noise
 
 __all__ = ["Separation", "separate", "warp_time_map", "confine_capture", "finger_joints", "moving_finger_joints",
-           "wrist_rooted", "forearm_rooted", "hand_only_files", "mirror_motion"]
+           "wrist_rooted", "forearm_rooted", "hand_only_files", "mirror_motion", "protocol_joints"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,6 +88,23 @@ def moving_finger_joints(take: Motion, roles: Roles | None = None, *, min_range_
     q = take.rotations[:, fj]
     dev = quat_angle_deg(q, _mean_rotation(q)[None])
     return [j for j, d in zip(fj, dev.max(axis=0)) if d >= min_range_deg]
+
+
+def protocol_joints(take: Motion) -> tuple[Roles, list[int]]:
+    """The take's roles and its moving finger joints, which every score of the protocol needs.
+
+    Raises
+    ------
+    SplicerError
+        No finger joint moves (the finger error would be meaningless).
+    """
+    from ..errors import SplicerError
+
+    roles = find_roles(take.skeleton, source=take.source)
+    moving = moving_finger_joints(take, roles)
+    if not moving:
+        raise SplicerError(f"{take.source or 'take'}: no finger joint moves; the protocol needs moving fingers")
+    return roles, moving
 
 
 def _arm_torso_joints(sk: Skeleton, r: Roles) -> list[int]:

@@ -298,3 +298,9 @@ def write_atomic(dest, write: Callable, *, what: str = "file", error: Callable |
     with Transaction() as tx:
         tx.stage(dest, write, what=what, error=error)
         tx.commit()
+
+
+def write_text_atomic(dest, text: str, *, what: str = "file", error: Callable | None = None) -> None:
+    """:func:`write_atomic` of UTF-8 text (reports, summaries, tables)."""
+    data = text.encode("utf-8")
+    write_atomic(dest, lambda f: f.write(data), what=what, error=error)

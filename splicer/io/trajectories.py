@@ -27,9 +27,7 @@ from __future__ import annotations
 
 import csv
 import io
-import os
 import re
-import tempfile
 import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -37,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import TrajectoryError
+from .atomic import write_atomic
 
 __all__ = ["Trajectories", "TrajectoryError", "UNIT_METRES", "read_trajectories", "read_c3d", "read_trc",
            "read_csv", "write_c3d", "write_trc"]
@@ -423,16 +422,7 @@ def _atomic_write(path: Path, write) -> None:
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise TrajectoryError(f"{path}: cannot write: folder {parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-        os.replace(tmp, path)
-    except OSError as e:
-        raise TrajectoryError(f"{path}: cannot write ({e.strerror or e})") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_atomic(path, write, what="marker file", error=lambda message: TrajectoryError(f"{path}: {message}"))
 
 
 def write_c3d(traj: Trajectories, path) -> None:

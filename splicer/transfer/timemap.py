@@ -49,10 +49,16 @@ def pin_constraints(time_map: np.ndarray, pins) -> np.ndarray:
         ds.append(d)
     xs.append(n - 1)
     ds.append(0.0)
-    tm = np.maximum.accumulate(tm + np.interp(np.arange(n), xs, ds))
     # the running maximum can lift a pinned frame above its window (a steep rise just before
-    # it): bound every frame by the windows of the pins around it.  Both bounds are
-    # non-decreasing, so the clipped map stays non-decreasing and every window holds.
+    # it): bound every frame by the windows of the pins around it
+    return _within_pins(np.maximum.accumulate(tm + np.interp(np.arange(n), xs, ds)), pins)
+
+
+def _within_pins(tm: np.ndarray, pins) -> np.ndarray:
+    """A non-decreasing map clipped between the pins' windows: every frame at least the lower
+    edge of the pins at or before it and at most the upper edge of the pins at or after it.
+    Both bounds are non-decreasing, so the result stays non-decreasing and every window holds."""
+    n = len(tm)
     lower = np.full(n, -np.inf)
     upper = np.full(n, np.inf)
     for x, y, t in pins:
@@ -177,13 +183,7 @@ def hold_pins(time_map: np.ndarray, pins, *, last: float) -> np.ndarray:
     [0.0, 1.0, 3.5, 3.5, 4.0]
     """
     tm = np.maximum.accumulate(np.asarray(time_map, dtype=np.float64))
-    n = len(tm)
-    lower = np.zeros(n)
-    upper = np.full(n, float(last))
-    for x, y, t in pins:
-        lower[x:] = np.maximum(lower[x:], y - t)
-        upper[:x + 1] = np.minimum(upper[:x + 1], y + t)
-    return np.clip(np.minimum(np.maximum(tm, lower), upper), 0.0, last)
+    return np.clip(_within_pins(tm, pins), 0.0, last)
 
 
 def coverage_weights(n: int, covered: tuple[int, int] | None, *, window: int) -> np.ndarray:

@@ -19,6 +19,14 @@ OPEN_BAND1 = "3s"
 BAND2_PER_BAND1 = 1.0 / 3.0
 #: Standard deviation of the Gaussian that smooths the markers before differentiating, seconds.
 SMOOTH_S = 0.025
+#: Noise matching: when one take's phase signs change more than this many times as often as
+#: the other's (velocity sign changes per second, over every marker coordinate), both are
+#: smoothed more, stepping through :data:`SMOOTH_STEPS` (multiples of ``smooth_s``) until
+#: they change about equally often.  Chosen on seeds 0-2 of the base and imitation
+#: scenarios (README, *Real-session scenarios*).
+NOISE_RATIO = 1.2
+#: Smoothing widths tried by noise matching, as multiples of ``smooth_s``.
+SMOOTH_STEPS = (1.0, 2.0, 4.0, 6.0, 8.0)
 #: D1's sign dead zone: components below this share of the motion's RMS velocity
 #: (acceleration) count as zero.
 DEAD_ZONE = 0.01

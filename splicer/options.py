@@ -30,6 +30,7 @@ class SpliceOptions:
     merge: str = "timemap"  # or "median"
     smooth_s: float = D.SMOOTH_S  # marker smoothing before derivatives, seconds
     dead_zone: float = D.DEAD_ZONE  # sign dead zone, fraction of the motion's RMS speed
+    noise_ratio: float | None = D.NOISE_RATIO  # smooth both takes more while one's signs flip this many times as often; None: off
     timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
     blend_window: int = D.BLEND_WINDOW_FRAMES  # median merge: frames blended each side of a jump
     uncovered_blend_s: float = 0.25  # body frames without hands material: blend in/out over this, seconds
@@ -87,6 +88,9 @@ def resolve_options(options: SpliceOptions | None = None, overrides: dict | None
     if opts.offset_s is not None and (isinstance(opts.offset_s, bool) or not isinstance(opts.offset_s, (int, float))
                                       or not math.isfinite(opts.offset_s)):
         raise SplicerError(f"offset_s must be a number of seconds, not {opts.offset_s!r}")
+    nr = opts.noise_ratio
+    if nr is not None and (isinstance(nr, bool) or not isinstance(nr, (int, float)) or not (nr >= 1 and math.isfinite(nr))):
+        raise SplicerError(f"noise_ratio must be a number >= 1 or None, not {nr!r}")
     if isinstance(opts.blend_window, bool) or not (isinstance(opts.blend_window, int) and opts.blend_window >= 0):
         raise SplicerError(f"blend_window must be a whole number of frames >= 0, not {opts.blend_window!r}")
     return opts

@@ -355,11 +355,20 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     from .align.passes import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
     from .align.band import band_frames
     from .align.confidence import pass_confidence
+    from .align.costs import matched_smoothing
 
     log = log or Log()
     s, bmk, hmk = markers.side, markers.body, markers.hands
     n, m = bmk.n_frames, hmk.n_frames
     fps = markers.spaces.body_fps
+
+    smooth_s, rb, rh = matched_smoothing(bmk, hmk, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+                                         ratio=opts.noise_ratio)
+    if smooth_s != opts.smooth_s:
+        noisy = "hands" if rh > rb else "body"
+        log.note(f"{s} side: the {noisy} take's arm is noisier (its motion changes direction {max(rb, rh):.1f} times "
+                 f"a second against {min(rb, rh):.1f}): markers smoothed over {smooth_s:g} s instead of "
+                 f"{opts.smooth_s:g} s for the phase metric")
 
     def run_pass1(mode: str):
         open_ends = mode == "open"
@@ -367,7 +376,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         w1 = band_frames(band1, n=n, fps=fps)
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
         guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
-        p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+        p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
                   theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
                   uncovered_quantile=opts.uncovered_quantile,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
@@ -407,7 +416,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
             log.progress(f"{s}: pass 2", 0.0)
             filled = hold_ends(per_frame)
             p2 = pass2(bmk, warp_markers(hmk, filled), width=w2, constraints=remap_constraints(cons, filled),
-                       diagonal_weight=opts.pass2_weight, d1_weight=opts.pass2_d1_weight, smooth_s=opts.smooth_s,
+                       diagonal_weight=opts.pass2_weight, d1_weight=opts.pass2_d1_weight, smooth_s=smooth_s,
                        dead_zone=opts.dead_zone, theta=opts.theta, covered=covered,
                        progress=lambda f: log.progress(f"{s}: pass 2", f))
             path = np.stack([p2.path[:, 0], np.interp(p2.path[:, 1], np.arange(n), filled)], axis=1)

@@ -6,7 +6,8 @@ import pytest
 from splicer.align.dtw import make_band
 from splicer.rig.markers import Markers
 from references import d1_reference, d2_reference
-from splicer.align.costs import d1_cost, d2_cost, kgp_theta, palm_features, phase_features, window_points
+from splicer.align.costs import (d1_cost, d2_cost, kgp_theta, matched_smoothing, palm_features, phase_features,
+                                 sign_change_rate, window_points)
 from splicer.model.rotations import quat_rotate, yaw_quat_deg
 
 
@@ -72,3 +73,48 @@ def test_d1_is_zero_on_itself_and_amplitude_invariant(rng):
     rows = d1_cost(fa, fb)(band, 0, 50)
     diag = np.array([rows[i, i - band.lo[i]] for i in range(50)])
     assert np.all(diag == 0)
+
+
+# --- noise matching: the phase metric's smoothing follows the noisier take ------------------
+
+def _swinging(t: np.ndarray, *, noise_deg: float = 0.0, seed: int = 0) -> Markers:
+    """An arm swinging at 0.4 and 0.9 Hz about the shoulder at 30 fps, optionally with arm noise
+    (Gaussian, smoothed over 0.05 s, in radians of swing angle on a 0.3-0.6 m arm)."""
+    from splicer.filters import gaussian_filter1d
+
+    ang = 0.6 * np.sin(2 * np.pi * 0.4 * t) + 0.3 * np.sin(2 * np.pi * 0.9 * t + 1.0)
+    nz = gaussian_filter1d(np.random.default_rng(seed).standard_normal((len(t), 4)), 1.5, axis=0, mode="nearest")
+    ang = ang[:, None] + np.radians(noise_deg) * nz / nz.std()  # each marker its own noise (as on separate segments)
+    pts = np.zeros((len(t), 4, 3))
+    for k, r in enumerate((0.3, 0.45, 0.5, 0.6)):
+        pts[:, k, 0] = r * np.sin(ang[:, k])
+        pts[:, k, 1] = -r * np.cos(ang[:, k])
+    return Markers(pts, np.zeros((len(t), 3)), np.zeros(len(t)), 1, 30.0, "left")
+
+
+def test_sign_change_rate_counts_reversals_per_second():
+    t = np.arange(600) / 30.0
+    pts = np.zeros((600, 4, 3))
+    pts[:, :, 2] = np.sin(2 * np.pi * 1.0 * t + 0.3)[:, None]  # every marker's z: 2 reversals a second
+    mk = Markers(pts, np.zeros((600, 3)), np.zeros(600), 1, 30.0, "left")
+    assert sign_change_rate(mk) == pytest.approx(2.0 / 3.0, abs=0.02)  # 4 of 12 coordinates move
+
+
+def test_matched_smoothing_keeps_clean_pairs_and_tempo_differences():
+    t = np.arange(900) / 30.0
+    body = _swinging(t)
+    assert matched_smoothing(body, _swinging(t))[0] == 0.025
+    # the hands performer 30 % slower: more reversals per second in the body, at every width
+    s, rb, rh = matched_smoothing(body, _swinging(t / 1.3))
+    assert s == 0.025 and rb > 1.1 * rh
+
+
+def test_matched_smoothing_smooths_a_noisy_take_more():
+    t = np.arange(900) / 30.0
+    body, noisy = _swinging(t), _swinging(t, noise_deg=2.0, seed=3)
+    s, rb, rh = matched_smoothing(body, noisy)
+    # 2.13 changes a second against 1.69 at 0.025 s (a ratio of 1.26 where the widest width
+    # gives 1.03); at 0.05 s 1.82 against 1.79: the first width within 1.2x of the widest's ratio
+    assert rh > 1.2 * rb and s == pytest.approx(0.05)
+    assert matched_smoothing(noisy, body)[0] == s  # symmetric in the takes
+    assert matched_smoothing(body, noisy, ratio=None)[0] == 0.025  # off

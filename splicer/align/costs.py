@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit, prange
 from ..filters import gaussian_filter1d
 
-from ..defaults import DEAD_ZONE, SMOOTH_S
+from ..defaults import DEAD_ZONE, NOISE_RATIO, SMOOTH_S, SMOOTH_STEPS
 from ..rig.markers import Markers
 
 __all__ = [
@@ -36,6 +36,8 @@ __all__ = [
     "palm_features",
     "d2_cost",
     "window_points",
+    "sign_change_rate",
+    "matched_smoothing",
     "kgp_theta",
 ]
 
@@ -149,6 +151,66 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         np.ascontiguousarray(vel), np.ascontiguousarray(acc), eps_v, eps_a, win,
         np.ascontiguousarray(markers.heading, dtype=np.float64), markers.up,
     )
+
+
+def sign_change_rate(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE) -> float:
+    """How often D1's velocity signs change: changes per second, averaged over every marker
+    coordinate (shoulder-relative, smoothed and dead-zoned as :func:`phase_features` does; a
+    step into or out of the dead zone counts as a change).
+
+    A gesturing arm reverses a coordinate's direction two or three times a second; capture
+    noise that the smoothing leaves in adds changes that carry no phase.
+
+    >>> import numpy as np
+    >>> from splicer.rig.markers import Markers
+    >>> t = np.arange(300) / 30.0                       # 10 s at 30 fps
+    >>> pts = np.zeros((300, 4, 3))
+    >>> pts[:, 1:, 0] = np.sin(np.pi * t + 0.3)[:, None]  # a 0.5 Hz swing: 1 reversal/s
+    >>> mk = Markers(pts, np.zeros((300, 3)), np.zeros(300), 1, 30.0, "left")
+    >>> round(sign_change_rate(mk), 2)  # only 3 of the 12 coordinates move
+    0.25
+    """
+    rel = markers.relative()
+    if rel.shape[0] < 2 or rel.size == 0:
+        return 0.0
+    vel, _ = _smooth_derivatives(rel, markers.fps, smooth_s)
+    eps = dead_zone * float(np.sqrt(np.mean(vel**2)))
+    sg = np.where(vel > eps, 1, np.where(vel < -eps, -1, 0))
+    changes = np.count_nonzero(sg[1:] != sg[:-1]) / (sg.shape[1] * sg.shape[2])
+    return float(changes / (rel.shape[0] / markers.fps))
+
+
+def matched_smoothing(body: Markers, hands: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE,
+                      ratio: float | None = NOISE_RATIO, steps=SMOOTH_STEPS) -> tuple[float, float, float]:
+    """The marker smoothing D1 uses for a pair: ``smooth_s``, or more when one take is noisier.
+
+    Both takes' :func:`sign_change_rate` is measured at every width ``smooth_s * steps``.  A
+    difference of tempo changes both takes' real reversals alike, so their ratio stays about
+    the same at every width; noise in one take (1-2 degrees of arm noise in a second
+    performance, a jittery solve) adds changes at the fine widths only, so the ratio there
+    departs from its value at the widest.  The first width whose ratio is within ``ratio``
+    (a factor) of the widest's is used; clean pairs keep ``smooth_s``.
+
+    Returns
+    -------
+    (smooth_s, rate_body, rate_hands) : tuple of float
+        The width chosen (seconds) and both sign-change rates at ``smooth_s`` (per second).
+    """
+    rb = sign_change_rate(body, smooth_s=smooth_s, dead_zone=dead_zone)
+    rh = sign_change_rate(hands, smooth_s=smooth_s, dead_zone=dead_zone)
+    if ratio is None or smooth_s <= 0 or len(steps) < 2:
+        return smooth_s, rb, rh
+    widths = [smooth_s * k for k in steps]
+    rates = [(rb, rh) if k == steps[0] == 1.0 else
+             (sign_change_rate(body, smooth_s=w, dead_zone=dead_zone), sign_change_rate(hands, smooth_s=w, dead_zone=dead_zone))
+             for k, w in zip(steps, widths)]
+    if min(min(r) for r in rates) <= 0:
+        return smooth_s, rb, rh  # a still take: nothing to compare
+    ref = np.log(rates[-1][1] / rates[-1][0])
+    for w, (b, h) in zip(widths, rates):
+        if abs(np.log(h / b) - ref) <= np.log(ratio):
+            return float(w), rb, rh
+    return float(widths[-1]), rb, rh
 
 
 @njit(cache=True, inline="always")

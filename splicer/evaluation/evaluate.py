@@ -78,7 +78,7 @@ METRICS = {
 }
 
 #: Where the real takes live, relative to the repository (never copied into it).
-SHARED_ZEGGS = Path(__file__).resolve().parents[1].parent / "shared" / "motions" / "zeggs"
+SHARED_ZEGGS = Path(__file__).resolve().parents[3] / "shared" / "motions" / "zeggs"  # ../shared beside the repo
 
 
 @dataclass(frozen=True)

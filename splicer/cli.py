@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import signal
 import sys
@@ -51,6 +52,16 @@ def _band_text(text: str) -> str:
     return text
 
 
+def _noise_ratio(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (v >= 1.0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be a number >= 1 (e.g. 1.2), not {text!r}")
+    return v
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="splice",
@@ -76,6 +87,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "implausibly short (with a warning)")
     p.add_argument("--offset", type=float, default=None, metavar="SECONDS",
                    help="open ends: body frame 0 shows this hands time (a starting guess, e.g. from timecode)")
+    p.add_argument("--noise-ratio", type=_noise_ratio, default=None, metavar="R",
+                   help="when one take's arm is noisier (a second performance), smooth both more until their "
+                        "direction changes agree within this factor (e.g. 1.2); default off, the summary suggests it")
     p.add_argument("--band2", default=None, type=_band_text, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")
@@ -224,7 +238,7 @@ def main(argv=None) -> int:
                             passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
                             mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on",
                             hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
-                            offset_s=args.offset)
+                            offset_s=args.offset, noise_ratio=args.noise_ratio)
         with tx:  # every output is staged, and appears only at tx.commit()
             write_motion(result.motion, out)  # BVH or FBX by suffix
             if args.report:

@@ -30,7 +30,7 @@ class SpliceOptions:
     merge: str = "timemap"  # or "median"
     smooth_s: float = D.SMOOTH_S  # marker smoothing before derivatives, seconds
     dead_zone: float = D.DEAD_ZONE  # sign dead zone, fraction of the motion's RMS speed
-    noise_ratio: float | None = D.NOISE_RATIO  # smooth both takes more while one's signs flip this many times as often; None: off
+    noise_ratio: float | None = D.NOISE_RATIO  # e.g. 1.2: smooth both takes more while one's signs flip this many times as often; None: off
     timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
     blend_window: int = D.BLEND_WINDOW_FRAMES  # median merge: frames blended each side of a jump
     uncovered_blend_s: float = 0.25  # body frames without hands material: blend in/out over this, seconds

@@ -362,13 +362,16 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     n, m = bmk.n_frames, hmk.n_frames
     fps = markers.spaces.body_fps
 
-    smooth_s, rb, rh = matched_smoothing(bmk, hmk, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
-                                         ratio=opts.noise_ratio)
+    smooth_s, noisier = matched_smoothing(bmk, hmk, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+                                          ratio=opts.noise_ratio)
     if smooth_s != opts.smooth_s:
-        noisy = "hands" if rh > rb else "body"
-        log.note(f"{s} side: the {noisy} take's arm is noisier (its motion changes direction {max(rb, rh):.1f} times "
-                 f"a second against {min(rb, rh):.1f}): markers smoothed over {smooth_s:g} s instead of "
-                 f"{opts.smooth_s:g} s for the phase metric")
+        log.note(f"{s} side: one take's arm is noisier (its motion changes direction {noisier:.1f}x as often, "
+                 f"tempo allowed for): markers smoothed over {smooth_s:g} s instead of {opts.smooth_s:g} s "
+                 "for the phase metric")
+    elif noisier > D.NOISE_WARN:
+        log.note(f"{s} side: one take's arm looks noisier (its motion changes direction {noisier:.1f}x as often, "
+                 "tempo allowed for; a second performance or a jittery solve?): if the alignment is off, "
+                 "try --noise-ratio 1.2")
 
     def run_pass1(mode: str):
         open_ends = mode == "open"

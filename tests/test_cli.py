@@ -136,3 +136,37 @@ def test_console_process_has_no_traceback(tmp_path):
                         str(tmp_path / "o.bvh")], capture_output=True, text=True, env={**os.environ, "PYTHONWARNINGS": ""})
     assert p.returncode == 1
     assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
+
+
+@pytest.mark.parametrize("value", ["0.9", "nan", "many"])
+def test_noise_ratio_must_be_at_least_one(value, tmp_path, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([str(BODY), str(HANDS), "-o", str(tmp_path / "o.bvh"), "--noise-ratio", value])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "--noise-ratio" in err and f"not {value!r}" in err
+    assert err.count("\n") == 1 and not (tmp_path / "o.bvh").exists()
+
+
+def test_noise_ratio_smooths_a_noisier_hands_take(tmp_path, capsys):
+    """The bundled pair with 2 degrees of smoothed noise on the hands take's arm: the summary
+    suggests --noise-ratio, and with it the markers are smoothed more."""
+    import numpy as np
+
+    from splicer.filters import gaussian_filter1d
+    from splicer.io.bvh import read_bvh, write_bvh
+    from splicer.rig.roles import find_roles
+
+    hands = read_bvh(HANDS)
+    roles = find_roles(hands.skeleton)
+    cols = [c for side in roles.sides.values() for j in (side.upper_arm, side.elbow) if j is not None
+            for c in hands.skeleton.rotation_columns(j)]
+    ch = np.array(hands.channels)
+    nz = gaussian_filter1d(np.random.default_rng(0).standard_normal((hands.n_frames, len(cols))), 1.5 * hands.fps / 30,
+                           axis=0, mode="nearest")
+    ch[:, cols] += 2.0 * nz / nz.std()
+    noisy = tmp_path / "noisy_hands.bvh"
+    write_bvh(hands.with_channels(ch), noisy)
+    code, out, _ = _run([BODY, noisy, "-o", tmp_path / "a.bvh"], capsys)
+    assert code == 0 and "looks noisier" in out and "try --noise-ratio 1.2" in out
+    code, out, _ = _run([BODY, noisy, "-o", tmp_path / "b.bvh", "--noise-ratio", "1.2"], capsys)
+    assert code == 0 and "markers smoothed over" in out

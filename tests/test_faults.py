@@ -243,7 +243,12 @@ def test_signals_wait_during_the_commit(tmp_path, monkeypatch):
         return real_replace(src, dst)
 
     monkeypatch.setattr(atomic.os, "replace", replace)
-    status, _, err = run_cli([body, hands, "-o", out, "--report", rep, "-q"])
+    # a background job (nohup, CI without a terminal) may start with SIGINT ignored: Ctrl-C's default here
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        status, _, err = run_cli([body, hands, "-o", out, "--report", rep, "-q"])
+    finally:
+        signal.signal(signal.SIGINT, old)
     assert sent and status == 130
     assert one_error_line(err) == f"splice: interrupted (SIGINT); after writing {out}, {rep} (complete)"
     assert out.exists() and rep.exists() and temporaries(tmp_path) == []

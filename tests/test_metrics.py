@@ -7,7 +7,7 @@ from splicer.align.dtw import make_band
 from splicer.rig.markers import Markers
 from references import d1_reference, d2_reference
 from splicer.align.costs import (d1_cost, d2_cost, kgp_theta, matched_smoothing, palm_features, phase_features,
-                                 sign_change_rate, window_points)
+                                 sign_change_rate, swing_rate, window_points)
 from splicer.model.rotations import quat_rotate, yaw_quat_deg
 
 
@@ -100,21 +100,28 @@ def test_sign_change_rate_counts_reversals_per_second():
     assert sign_change_rate(mk) == pytest.approx(2.0 / 3.0, abs=0.02)  # 4 of 12 coordinates move
 
 
+def test_swing_rate_follows_tempo_not_noise():
+    t = np.arange(900) / 30.0
+    body = swing_rate(_swinging(t))
+    assert swing_rate(_swinging(t / 2.0)) == pytest.approx(body / 2.0, rel=0.15)  # half the tempo
+    assert swing_rate(_swinging(t, noise_deg=3.0, seed=3)) == pytest.approx(body, rel=0.1)
+
+
 def test_matched_smoothing_keeps_clean_pairs_and_tempo_differences():
     t = np.arange(900) / 30.0
     body = _swinging(t)
-    assert matched_smoothing(body, _swinging(t))[0] == 0.025
-    # the hands performer 30 % slower: more reversals per second in the body, at every width
-    s, rb, rh = matched_smoothing(body, _swinging(t / 1.3))
-    assert s == 0.025 and rb > 1.1 * rh
+    assert matched_smoothing(body, _swinging(t), ratio=1.2) == (0.025, pytest.approx(1.0))
+    # the hands performer 30 % slower: fewer changes a second, explained by the tempo
+    s, excess = matched_smoothing(body, _swinging(t / 1.3), ratio=1.2)
+    assert s == 0.025 and excess < 1.2
+    assert sign_change_rate(body) > 1.1 * sign_change_rate(_swinging(t / 1.3))
 
 
-def test_matched_smoothing_smooths_a_noisy_take_more():
+def test_matched_smoothing_smooths_a_noisy_take_more_when_asked():
     t = np.arange(900) / 30.0
     body, noisy = _swinging(t), _swinging(t, noise_deg=2.0, seed=3)
-    s, rb, rh = matched_smoothing(body, noisy)
-    # 2.13 changes a second against 1.69 at 0.025 s (a ratio of 1.26 where the widest width
-    # gives 1.03); at 0.05 s 1.82 against 1.79: the first width within 1.2x of the widest's ratio
-    assert rh > 1.2 * rb and s == pytest.approx(0.05)
-    assert matched_smoothing(noisy, body)[0] == s  # symmetric in the takes
-    assert matched_smoothing(body, noisy, ratio=None)[0] == 0.025  # off
+    s, excess = matched_smoothing(body, noisy, ratio=1.2)
+    # 2.13 changes a second against 1.69 at 0.025 s; at 0.05 s 1.82 against 1.79
+    assert excess > 1.2 and s == pytest.approx(0.05)
+    assert matched_smoothing(noisy, body, ratio=1.2)[0] == pytest.approx(0.05)  # either take
+    assert matched_smoothing(body, noisy) == (0.025, pytest.approx(excess))  # the default: off, the excess measured

@@ -147,7 +147,7 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     from . import __version__
     from .io.config import SpliceConfig, read_config
     from .align.frames import FrameSpaces, pins_from_config
-    from .rig.marker_roles import arm_from_trajectories
+    from .rig.marker_arm import arm_from_trajectories
     from .options import resolve_options
     from .pipeline import Log, SideMarkers, SideResult, _align_up, _coverage_report, align_side, time_map
     from .report import Report, SideReport

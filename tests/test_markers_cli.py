@@ -14,7 +14,7 @@ from splicer.markers_cli import main  # noqa: E402
 from splicer.evaluation.scenario_eval import ranges_mask  # noqa: E402
 from splicer.evaluation.separate import separate  # noqa: E402
 from splicer.evaluation.synth import make_gesture_take  # noqa: E402
-from splicer.io.trajectories import write_c3d  # noqa: E402
+from splicer.io.trajectory_writers import write_c3d  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -65,7 +65,7 @@ class MarkerArm:
 
 
 def arm_from_trajectories(traj: Trajectories, side: str, *, mapping: dict | None = None,
-                          max_gap_s: float = 0.5, rigid: bool = True) -> MarkerArm:
+                          max_gap_s: float = 0.5, rigid: bool = False) -> MarkerArm:
     """One side's four markers and shoulder from real trajectories: roles, gap filling, segments.
 
     Parameters

@@ -187,6 +187,7 @@ def rigid_markers(points: np.ndarray, roles: dict, segments: dict) -> tuple[dict
     centre = 0.5 * (centre_f + fh.world(c_h))
     # the radial-ulnar vector (styloid to styloid), carried by the hand
     across_h = np.einsum("tji,tj->ti", fh.rotation, ff.world(p1_f) - ff.world(p2_f)).mean(axis=0)
+
     across = np.einsum("tij,j->ti", fh.rotation, across_h)
     out = {"p1": centre + 0.5 * across, "p2": centre - 0.5 * across,
            "p3": place(ff, forearm, roles["p3"]), "p4": place(fh, hand, roles["p4"])}

@@ -11,7 +11,8 @@ noise of the cluster's markers, and places anatomical points in the segment fram
   Ehrig et al. 2006, least squares over the take), pulled weakly towards the mid-styloid
   point so that a take with little wrist motion still has a well-posed answer;
 * ``p1``, ``p2``: the wrist centre plus or minus half the radial-ulnar (styloid) vector,
-  the vector carried by the HAND frame, so the wrist markers follow wrist flexion as the
+  the vector carried by the HAND frame (its direction in the hand frame at the mean wrist
+  posture, its length the styloid distance), so the wrist markers follow wrist flexion as the
   virtual ``p1``, ``p2`` do (ALGORITHM.md section 1);
 * ``p3``: the forearm role markers' place in the forearm frame; ``p4``: the hand role
   markers' place in the hand frame; the shoulder: its role markers' place in the girdle
@@ -186,7 +187,9 @@ def rigid_markers(points: np.ndarray, roles: dict, segments: dict) -> tuple[dict
     c_h = fh.local(centre_f).mean(axis=0)
     centre = 0.5 * (centre_f + fh.world(c_h))
     # the radial-ulnar vector (styloid to styloid), carried by the hand
+    # the radial-ulnar (styloid) vector in the hand frame at the mean wrist posture, at its own length
     across_h = np.einsum("tji,tj->ti", fh.rotation, ff.world(p1_f) - ff.world(p2_f)).mean(axis=0)
+    across_h *= np.linalg.norm(p1_f - p2_f) / max(float(np.linalg.norm(across_h)), 1e-12)
 
     across = np.einsum("tij,j->ti", fh.rotation, across_h)
     out = {"p1": centre + 0.5 * across, "p2": centre - 0.5 * across,

@@ -147,3 +147,13 @@ def test_rigid_derivation_on_the_shared_capture(shared_motions):
     mid_rig = rig.markers.points[:, :2].mean(axis=1)
     assert np.median(np.linalg.norm(mid_rig - mid_avg, axis=1)) < 40.0
     assert np.median(np.linalg.norm(rig.markers.points[:, 3] - avg.markers.points[:, 3], axis=1)) < 5.0
+
+
+def test_constraints_file_takes_derive():
+    from splicer.errors import ConstraintError
+    from splicer.io.config import parse_config
+
+    cfg = parse_config("markers:\n  hands: {derive: rigid}\n  body: {derive: averages, up: z}\n")
+    assert cfg.markers == {"hands": {"derive": "rigid"}, "body": {"derive": "averages", "up": "z"}}
+    with pytest.raises(ConstraintError, match=r"line 1: 'markers' takes .*'derive:' \(rigid or averages\)"):
+        parse_config("markers:\n  hands: {smooth: 3}\n")

@@ -9,9 +9,12 @@ the body); they are written as C3D and read back, then the splice aligns on
 * virtual markers of both BVHs (today's method),
 * the hands C3D (``--hands-markers``) and the body's virtual markers,
 * both C3Ds (``--hands-markers --body-markers``),
+* the same two with the markers derived from rigid segment fits (``markers: derive: rigid``,
+  :mod:`splicer.rig.segment_fit`) instead of role averages,
 
 all with the default options (full method, smooth time map, open ends); and, to show where the
-difference comes from, both C3D without noise and gaps, with noise only, with gaps only.  Alignment error: body frames,
+difference comes from, both C3D without noise and gaps, with noise only, with gaps only (and rigid
+segments without noise and gaps).  Alignment error: body frames,
 as in :mod:`splicer.evaluation.evaluate` (a body frame left uncovered is scored with the nearest covered hands frame;
 "uncovered" is their share).
 

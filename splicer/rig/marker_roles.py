@@ -18,7 +18,8 @@ Sides: Plug-in Gait names carry an ``R``/``L`` prefix; the other sets may carry 
 ``R_``, ``Right``, ``Right_`` (or a ``_R``, ``_Right``, ``.R`` suffix), or no side at all (as
 the one-arm capture ``markers_analogs.c3d``; such markers serve whichever side is asked).
 Subject prefixes (``Daphnee:``) and case are ignored.  Several markers in one role (a
-cluster) are averaged after gap filling.  ``p4`` is the midpoint of the index and little-finger
+cluster) are averaged after gap filling (or fitted as rigid segments with ``derive: rigid``,
+:mod:`splicer.rig.marker_arm`).  ``p4`` is the midpoint of the index and little-finger
 knuckle markers where a set has them — the base of the middle finger, as the virtual ``p4``
 (ALGORITHM.md section 1); it aligned better than the centroid of all four hand markers on
 the evaluation protocol (0.08 body frames less mean error, seeds 100-101).  The other hand
@@ -29,6 +30,7 @@ The constraints file overrides any role, per take and side, and may state the up
     markers:
       hands:
         up: z                       # x, y, z, or -x, -y, -z; detected when omitted
+        derive: averages            # or rigid: p1..p4 and the shoulder from rigid segment fits
         right: {p1: STYLr, p2: STYLu, p3: [LARMl, LARMm], p4: INDEX, shoulder: ACRO_tip}
 """
 

@@ -9,9 +9,12 @@ the body); they are written as C3D and read back, then the splice aligns on
 * virtual markers of both BVHs (today's method),
 * the hands C3D (``--hands-markers``) and the body's virtual markers,
 * both C3Ds (``--hands-markers --body-markers``),
+* the same two with the markers derived from rigid segment fits (``markers: derive: rigid``,
+  :mod:`splicer.rig.segment_fit`) instead of role averages,
 
 all with the default options (full method, smooth time map, open ends); and, to show where the
-difference comes from, both C3D without noise and gaps, with noise only, with gaps only.  Alignment error: body frames,
+difference comes from, both C3D without noise and gaps, with noise only, with gaps only (and rigid
+segments without noise and gaps).  Alignment error: body frames,
 as in :mod:`splicer.evaluation.evaluate` (a body frame left uncovered is scored with the nearest covered hands frame;
 "uncovered" is their share).
 
@@ -32,18 +35,24 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from splicer.io.bvh import read_bvh  # noqa: E402
+from splicer.io.config import SpliceConfig  # noqa: E402
 from splicer.evaluation.evaluate import _alignment_scores  # noqa: E402
 from splicer.evaluation.marker_synth import skin_markers  # noqa: E402
 from splicer.pipeline import splice  # noqa: E402
 from splicer.evaluation.separate import separate  # noqa: E402
-from splicer.io.trajectories import read_c3d, write_c3d  # noqa: E402
+from splicer.io.trajectories import read_c3d  # noqa: E402
+from splicer.io.trajectory_writers import write_c3d  # noqa: E402
 
 TAKE = ROOT.parent / "shared" / "motions" / "zeggs" / "067_Speech_2_x_1_0.bvh"
-METHODS = ("virtual markers (both BVHs)", "hands C3D + body virtual", "both C3D")
+METHODS = ("virtual markers (both BVHs)", "hands C3D + body virtual", "both C3D", "hands C3D, rigid segments",
+           "both C3D, rigid segments")
 #: Where the loss comes from: both C3D with parts of the degradation switched off.
 ABLATIONS = {"both C3D, no noise, no gaps": dict(noise_mm=(0.0, 0.0), gaps_per_minute=0.0),
              "both C3D, noise only": dict(gaps_per_minute=0.0),
              "both C3D, gaps only": dict(noise_mm=(0.0, 0.0))}
+#: The markers derived from rigid segment fits (``markers: derive: rigid``) instead of role averages.
+RIGID = SpliceConfig(markers={"body": {"derive": "rigid"}, "hands": {"derive": "rigid"}})
+VARIANTS = {"both C3D, rigid segments, no noise, no gaps": dict(config=RIGID, noise_mm=(0.0, 0.0), gaps_per_minute=0.0)}
 
 
 def run(take_path: Path, seeds, *, hands_fps=100.0, body_fps=120.0) -> pd.DataFrame:
@@ -57,18 +66,22 @@ def run(take_path: Path, seeds, *, hands_fps=100.0, body_fps=120.0) -> pd.DataFr
             write_c3d(skin_markers(sep.body, rng=rng, fps=body_fps), Path(tmp) / "body.c3d")
             th, tb = read_c3d(Path(tmp) / "hands.c3d"), read_c3d(Path(tmp) / "body.c3d")
             missing = 100.0 * float(np.mean(np.concatenate([th.missing.ravel(), tb.missing.ravel()])))
-            for method, kw in zip(METHODS, ({}, {"hands_markers": th}, {"hands_markers": th, "body_markers": tb})):
+            for method, kw in zip(METHODS, ({}, {"hands_markers": th}, {"hands_markers": th, "body_markers": tb},
+                                            {"hands_markers": th, "config": RIGID},
+                                            {"hands_markers": th, "body_markers": tb, "config": RIGID})):
                 r = splice(sep.body, sep.hands, **kw)
                 sc = _alignment_scores({s: v.hands_frame for s, v in r.sides.items()}, sep.truth)
                 fills = sum(len(v.markers.real.get(k, {}).get("gaps_filled", [])) for v in r.sides.values()
                             for k in ("body", "hands"))
                 rows.append({"seed": seed, "method": method, **sc, "missing_pct": missing, "gaps_filled": fills})
                 print(seed, method, {k: round(v, 3) for k, v in sc.items()}, flush=True)
-            for method, kw in ABLATIONS.items():
+            for method, kw in (ABLATIONS | VARIANTS).items():
+                kw = dict(kw)
+                cfg = kw.pop("config", None)
                 rng = np.random.default_rng(seed + 1000)
                 th = skin_markers(sep.hands, rng=rng, fps=hands_fps, **kw)
                 tb = skin_markers(sep.body, rng=rng, fps=body_fps, **kw)
-                r = splice(sep.body, sep.hands, hands_markers=th, body_markers=tb)
+                r = splice(sep.body, sep.hands, hands_markers=th, body_markers=tb, config=cfg)
                 sc = _alignment_scores({s: v.hands_frame for s, v in r.sides.items()}, sep.truth)
                 rows.append({"seed": seed, "method": method, **sc, "missing_pct": np.nan, "gaps_filled": np.nan})
                 print(seed, method, {k: round(v, 3) for k, v in sc.items()}, flush=True)
@@ -85,7 +98,7 @@ def to_markdown(df: pd.DataFrame, take_path: Path) -> str:
         lines.append(f"| {m} | {d.align_mean.mean():.2f} ({d.align_mean.max():.2f}) | {d.align_max.mean():.1f} | "
                      f"{d.within_1.mean():.1f} | {d.within_3.mean():.1f} | {d.uncovered.mean():.1f} |")
     base = df[df.method == METHODS[0]].set_index("seed").align_mean
-    for m in METHODS[1:] + tuple(ABLATIONS):
+    for m in METHODS[1:] + tuple(ABLATIONS) + tuple(VARIANTS):
         d = df[df.method == m].set_index("seed").align_mean
         lines.append("")
         lines.append(f"- {m}: at least as accurate as virtual markers in {(d <= base).sum()}/{len(d)} seeds; "

@@ -58,7 +58,7 @@ _LAZY = {
     "read_config": ".io.config", "parse_config": ".io.config", "SpliceConfig": ".io.config",
     "Pin": ".align.frames",
     "find_roles": ".rig.roles",
-    "Trajectories": ".io.trajectories", "read_trajectories": ".io.trajectories", "write_c3d": ".io.trajectories",
+    "Trajectories": ".io.trajectories", "read_trajectories": ".io.trajectories", "write_c3d": ".io.trajectory_writers",
     "align_marker_files": ".markers_cli",
 }
 

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli import _band_text, _Parser
 from .errors import SplicerError
 from .io.atomic import write_text_atomic
 
@@ -147,7 +148,7 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     from . import __version__
     from .io.config import SpliceConfig, read_config
     from .align.frames import FrameSpaces, pins_from_config
-    from .rig.marker_roles import arm_from_trajectories
+    from .rig.marker_arm import arm_from_trajectories
     from .options import resolve_options
     from .pipeline import Log, SideMarkers, SideResult, _align_up, _coverage_report, align_side, time_map
     from .report import Report, SideReport
@@ -211,8 +212,19 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     return MarkerAlignment(bt, ht, maps, out, report)
 
 
+def _seconds(text: str) -> float:
+    """A positive, finite number of seconds, as typed."""
+    try:
+        v = float(_band_text(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not (np.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: give a positive number of seconds")
+    return v
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="splice-markers",
         description="Align a hands marker session to a body marker session (two-pass DTW on the wrist, forearm "
                     "and hand markers) and write the time map and the hands markers re-timed onto the body's "
@@ -225,9 +237,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--constraints", metavar="YAML", help="pins (0-based rows of each file) and 'markers:' roles")
     p.add_argument("--side", choices=("left", "right", "both"), default="both",
                    help="arm to align (default: every side with markers in both files)")
-    p.add_argument("--band", "--band1", dest="band1", default="30%",
+    p.add_argument("--band", "--band1", dest="band1", default="30%", type=_band_text,
                    help="pass-1 band width: frames (120), share of the body take (30%%) or seconds (20s)")
-    p.add_argument("--max-gap", type=float, default=0.5, metavar="S",
+    p.add_argument("--max-gap", type=_seconds, default=0.5, metavar="S",
                    help="report gaps longer than this many seconds (default 0.5)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary")
     return p
@@ -252,7 +264,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     t0 = time.perf_counter()
     try:
-        from .io.trajectories import write_c3d, write_trc
+        from .io.trajectory_writers import write_c3d, write_trc
 
         out = Path(args.output)
         if out.suffix.lower() not in (".c3d", ".trc"):

@@ -262,7 +262,7 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     for take, traj, motion in (("body", inputs.body_markers, bm), ("hands", inputs.hands_markers, hm)):
         if traj is None:
             continue
-        from .rig.marker_roles import arm_from_trajectories, on_frames
+        from .rig.marker_arm import arm_from_trajectories, on_frames
 
         arm = arm_from_trajectories(traj, side, mapping=inputs.config.markers.get(take))
         if not arm.roles.sided and len(rig.sides) > 1 and inputs.config.hands_side != side:

@@ -5,7 +5,8 @@ import pytest
 
 from splicer.io.config import parse_config
 from splicer.errors import RoleError
-from splicer.rig.marker_roles import arm_from_trajectories, detect_marker_up, find_marker_roles, marker_sides
+from splicer.rig.marker_arm import arm_from_trajectories
+from splicer.rig.marker_roles import detect_marker_up, find_marker_roles, marker_sides
 from splicer.io.trajectories import Trajectories
 
 
@@ -100,7 +101,7 @@ def test_shared_vicon_capture(shared_motions):
 
 
 def test_on_frames_resamples_onto_the_take(rng):
-    from splicer.rig.marker_roles import on_frames
+    from splicer.rig.marker_arm import on_frames
     from splicer.rig.markers import Markers
 
     t = np.arange(101) / 100.0  # 1 s at 100 Hz, moving at (3, -1, 2) units per second

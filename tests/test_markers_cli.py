@@ -14,7 +14,7 @@ from splicer.markers_cli import main  # noqa: E402
 from splicer.evaluation.scenario_eval import ranges_mask  # noqa: E402
 from splicer.evaluation.separate import separate  # noqa: E402
 from splicer.evaluation.synth import make_gesture_take  # noqa: E402
-from splicer.io.trajectories import write_c3d  # noqa: E402
+from splicer.io.trajectory_writers import write_c3d  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -115,3 +115,19 @@ def test_unsided_markers_are_not_used_for_two_sides(session):
     assert all("markers" not in s.extra for s in r.report.sides.values())
     r = splice(d / "body.bvh", d / "hands.bvh", hands_markers=one_arm, config=SpliceConfig(hands_side="right"))
     assert "markers" in r.report.sides["right"].extra and "markers" not in r.report.sides["left"].extra
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--max-gap", "-1"], "argument --max-gap: '-1': give a positive number of seconds"),
+    (["--max-gap", "nan"], "give a positive number of seconds"),
+    (["--max-gap", "soon"], "'soon' is not a number of seconds"),
+    (["--band", "9" * 100], "band width '99999999999999999999'… is 100 characters long"),
+    (["--side", "middle"], "argument --side: invalid choice"),
+])
+def test_usage_errors_are_one_line(tmp_path, capsys, args, words):
+    with pytest.raises(SystemExit) as e:
+        main(["b.c3d", "h.c3d", "-o", str(tmp_path / "o.c3d")] + args)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("splice-markers: error: ") and words in err
+    assert err.rstrip().endswith("(see splice-markers --help)")

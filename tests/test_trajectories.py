@@ -5,8 +5,9 @@ import pytest
 
 c3d = pytest.importorskip("c3d")
 
-from splicer.io.trajectories import (Trajectories, TrajectoryError, read_c3d, read_csv, read_trajectories,  # noqa: E402
-                                  read_trc, write_c3d, write_trc)
+from splicer.io.trajectories import Trajectories, TrajectoryError, read_c3d, read_trajectories, read_trc  # noqa: E402
+from splicer.io.trajectory_csv import read_csv  # noqa: E402
+from splicer.io.trajectory_writers import write_c3d, write_trc  # noqa: E402
 
 
 def _tiny_c3d(path, *, first=5, rate=50.0, units="mm  "):

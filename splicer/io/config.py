@@ -290,9 +290,9 @@ def parse_config(text: str, source: str = "<config>") -> SpliceConfig:
     # markers: optical marker roles (checked in splicer.marker_roles)
     markers = _scalar(top["markers"]) if "markers" in top else {}
     if markers and (not isinstance(markers, dict) or set(markers) - {"body", "hands"}
-                    or any(not isinstance(v, dict) or set(v) - {"up", "left", "right"} for v in markers.values())):
+                    or any(not isinstance(v, dict) or set(v) - {"up", "derive", "left", "right"} for v in markers.values())):
         raise ConstraintError(f"{source}, line {lines['markers']}: 'markers' takes 'body:' and/or 'hands:' mappings "
-                              "of 'up:', 'left:' and 'right:' (roles p1, p2, p3, p4, shoulder)")
+                              "of 'up:', 'derive:' (rigid or averages), 'left:' and 'right:' (roles p1, p2, p3, p4, shoulder)")
     ends = _scalar(top["ends"]) if "ends" in top else None
     if ends not in (None, "auto", "open", "fixed"):
         raise ConstraintError(f"{source}, line {lines['ends']}: ends must be auto, open or fixed, not {shorten(ends)}")

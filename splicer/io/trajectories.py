@@ -1,4 +1,5 @@
-"""Optical marker trajectories: C3D, TRC and CSV in, C3D and TRC out.
+"""Optical marker trajectories: C3D, TRC and CSV in (CSV: :mod:`splicer.io.trajectory_csv`; writers:
+:mod:`splicer.io.trajectory_writers`).
 
 A :class:`Trajectories` holds labelled 3-D marker paths sampled at a constant rate, with
 missing samples as NaN, in a stated length unit.
@@ -25,9 +26,7 @@ from 1); row ``k`` of ``points`` is at ``k / fps`` seconds after the first sampl
 
 from __future__ import annotations
 
-import csv
 import io
-import re
 import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -35,10 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import TrajectoryError
-from .atomic import write_atomic
 
-__all__ = ["Trajectories", "TrajectoryError", "UNIT_METRES", "read_trajectories", "read_c3d", "read_trc",
-           "read_csv", "write_c3d", "write_trc"]
+__all__ = ["Trajectories", "TrajectoryError", "UNIT_METRES", "read_trajectories", "read_c3d", "read_trc"]
 
 #: Metres per unit of every length unit the readers convert between.
 UNIT_METRES = {"mm": 1e-3, "cm": 1e-2, "dm": 1e-1, "m": 1.0, "in": 0.0254, "ft": 0.3048}
@@ -156,6 +153,8 @@ def read_trajectories(path, *, units: str | None = "mm", fps: float | None = Non
     if ext == ".trc":
         return read_trc(p, units=units)
     if ext in (".csv", ".txt"):
+        from .trajectory_csv import read_csv
+
         return read_csv(p, units=units, fps=fps)
     raise TrajectoryError(f"{p}: unknown marker file type {ext or '(no extension)'!r}; use .c3d, .trc or .csv")
 
@@ -308,162 +307,3 @@ def read_trc(path, *, units: str | None = "mm") -> Trajectories:
         notes.append(f"{p.name}: NumFrames says {meta['NumFrames']} but the file has {len(rows)} rows")
     return _finish(Trajectories(tuple(labels), pts, rate, first, meta["Units"].strip().lower(), str(p),
                                 tuple(notes)), units)
-
-
-_AXIS_SUFFIX = re.compile(r"^(.*?)(?:[_:. ]|)([xyzXYZ])$")
-
-
-def read_csv(path, *, units: str | None = "mm", fps: float | None = None, file_units: str = "mm") -> Trajectories:
-    """Read a CSV marker table: plain (one header row) or Vicon Nexus' trajectory export.
-
-    Parameters
-    ----------
-    path : str or Path
-    units : str or None
-        Length unit of the result; None keeps the file's.
-    fps : float, optional
-        Samples per second when the file has no ``time`` column (plain layout).
-    file_units : str
-        Length unit of a plain CSV's numbers (it cannot say); Nexus exports state theirs.
-
-    Raises
-    ------
-    TrajectoryError
-        No rate, a column without its x/y/z siblings, a non-number (naming line and column).
-    """
-    p = Path(path)
-    text = _read_text(p)
-    rows = list(csv.reader(io.StringIO(text)))
-    if not rows:
-        raise TrajectoryError(f"{p}: empty CSV file")
-    if rows[0] and rows[0][0].strip().lower() == "trajectories":
-        return _finish(_nexus_csv(p, rows), units)
-    header = [h.strip() for h in rows[0]]
-    frame_col = time_col = None
-    triples: dict = {}
-    for c, h in enumerate(header):
-        low = h.lower()
-        if low in ("frame", "frame#", "frames"):
-            frame_col = c
-        elif low in ("time", "time_s", "t", "seconds"):
-            time_col = c
-        elif h:
-            m = _AXIS_SUFFIX.match(h)
-            if not m or not m.group(1):
-                raise TrajectoryError(f"{p}, line 1, column {c + 1}: {h!r} is not <marker>_x/_y/_z, frame or time")
-            triples.setdefault(m.group(1), {})["xyz".index(m.group(2).lower())] = c
-    labels = list(triples)
-    for lab in labels:
-        if len(triples[lab]) != 3:
-            raise TrajectoryError(f"{p}, line 1: marker {lab!r} lacks some of its x, y, z columns")
-    if not labels:
-        raise TrajectoryError(f"{p}, line 1: no <marker>_x/_y/_z columns")
-    data, frames, times = [], [], []
-    for ln, r in enumerate(rows[1:], start=2):
-        if not any(v.strip() for v in r):
-            continue
-        r = r + [""] * (len(header) - len(r))
-        data.append([[_number(r[triples[lab][a]], f"{p}, line {ln}, column {triples[lab][a] + 1}")
-                      for a in range(3)] for lab in labels])
-        if frame_col is not None:
-            frames.append(_number(r[frame_col], f"{p}, line {ln}: frame"))
-        if time_col is not None:
-            times.append(_number(r[time_col], f"{p}, line {ln}: time"))
-    if not data:
-        raise TrajectoryError(f"{p}: the CSV file has no data rows")
-    if fps is None:
-        if len(times) < 2:
-            raise TrajectoryError(f"{p}: no time column; give the rate (fps) of this CSV")
-        dt = np.diff(np.array(times))
-        if not (np.all(np.isfinite(dt)) and np.all(dt > 0)):
-            raise TrajectoryError(f"{p}: the time column does not increase")
-        fps = 1.0 / float(np.median(dt))
-    pts = np.array(data, dtype=np.float64)
-    pts[np.isnan(pts).any(axis=2)] = np.nan
-    first = int(frames[0]) if frames and np.isfinite(frames[0]) else 0
-    return _finish(Trajectories(tuple(labels), pts, float(fps), first, file_units, str(p)), units)
-
-
-def _nexus_csv(p: Path, rows: list) -> Trajectories:
-    if len(rows) < 6:
-        raise TrajectoryError(f"{p}: a Nexus CSV export needs 'Trajectories', rate, labels, axes, units rows")
-    rate = _number(rows[1][0] if rows[1] else "", f"{p}, line 2: rate")
-    if not (rate > 0):
-        raise TrajectoryError(f"{p}, line 2: expected the trajectory rate, got {rows[1]!r}")
-    label_row, axis_row, unit_row = rows[2], rows[3], rows[4]
-    cols, labels = [], []
-    for c, lab in enumerate(label_row):
-        if lab.strip():
-            labels.append(lab.strip())
-            cols.append(c)
-    if not labels:
-        raise TrajectoryError(f"{p}, line 3: no marker labels")
-    for c in cols:
-        if [a.strip().upper() for a in axis_row[c:c + 3]] != ["X", "Y", "Z"]:
-            raise TrajectoryError(f"{p}, line 4, column {c + 1}: expected X, Y, Z under {label_row[c]!r}")
-    unit = unit_row[cols[0]].strip().lower() if len(unit_row) > cols[0] else "mm"
-    data, frames = [], []
-    for ln, r in enumerate(rows[5:], start=6):
-        if not any(v.strip() for v in r):
-            break  # a blank row ends the section
-        r = r + [""] * (cols[-1] + 3 - len(r))
-        frames.append(_number(r[0], f"{p}, line {ln}: frame"))
-        data.append([[_number(r[c + a], f"{p}, line {ln}, column {c + a + 1}") for a in range(3)] for c in cols])
-    if not data:
-        raise TrajectoryError(f"{p}: the Nexus CSV export has no data rows")
-    pts = np.array(data, dtype=np.float64)
-    pts[np.isnan(pts).any(axis=2)] = np.nan
-    return Trajectories(tuple(labels), pts, rate, int(frames[0]) if np.isfinite(frames[0]) else 1, unit or "mm", str(p))
-
-
-# ---------------------------------------------------------------- writing
-
-def _atomic_write(path: Path, write) -> None:
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise TrajectoryError(f"{path}: cannot write: folder {parent} does not exist")
-    write_atomic(path, write, what="marker file", error=lambda message: TrajectoryError(f"{path}: {message}"))
-
-
-def write_c3d(traj: Trajectories, path) -> None:
-    """Write the trajectories as a C3D file (float points, no analogs), atomically.
-
-    Missing samples are written with residual -1 (and coordinates 0), the C3D convention.
-    """
-    c3d = _c3d_module()
-    p = Path(path)
-    if traj.units not in UNIT_METRES:
-        raise TrajectoryError(f"{p}: cannot write unit {traj.units!r}")
-    w = c3d.Writer(point_rate=float(traj.fps), analog_rate=0.0, point_scale=-1.0, point_units=f"{traj.units:<4}")
-    labels = [s[:30] for s in traj.labels]
-    w.set_point_labels(labels)
-    w.set_start_frame(max(1, traj.first_frame))
-    miss = traj.missing
-    empty = np.zeros((0, 0), np.float32)
-    frames = []
-    for t in range(traj.n_frames):
-        pts = np.zeros((traj.n_markers, 5), np.float32)
-        ok = ~miss[t]
-        pts[ok, :3] = traj.points[t, ok]
-        pts[~ok, 3] = -1.0
-        frames.append((pts, empty))
-    w.add_frames(frames)
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="No analog data")
-        _atomic_write(p, w.write)
-
-
-def write_trc(traj: Trajectories, path) -> None:
-    """Write the trajectories as a TRC file (tab-separated; missing samples as empty fields)."""
-    p = Path(path)
-    n, k = traj.n_frames, traj.n_markers
-    out = io.StringIO()
-    out.write(f"PathFileType\t4\t(X/Y/Z)\t{p.name}\n")
-    out.write("DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames\n")
-    out.write(f"{traj.fps:g}\t{traj.fps:g}\t{n}\t{k}\t{traj.units}\t{traj.fps:g}\t{traj.first_frame}\t{n}\n")
-    out.write("Frame#\tTime\t" + "\t".join(f"{s}\t\t" for s in traj.labels).rstrip("\t") + "\n")
-    out.write("\t\t" + "\t".join(f"X{i + 1}\tY{i + 1}\tZ{i + 1}" for i in range(k)) + "\n\n")
-    for t in range(n):
-        vals = ["" if np.isnan(v) else f"{v:.6f}" for v in traj.points[t].ravel()]
-        out.write(f"{traj.first_frame + t}\t{t / traj.fps:.6f}\t" + "\t".join(vals) + "\n")
-    _atomic_write(p, lambda f: f.write(out.getvalue().encode("utf-8")))

@@ -18,7 +18,8 @@ Sides: Plug-in Gait names carry an ``R``/``L`` prefix; the other sets may carry 
 ``R_``, ``Right``, ``Right_`` (or a ``_R``, ``_Right``, ``.R`` suffix), or no side at all (as
 the one-arm capture ``markers_analogs.c3d``; such markers serve whichever side is asked).
 Subject prefixes (``Daphnee:``) and case are ignored.  Several markers in one role (a
-cluster) are averaged after gap filling.  ``p4`` is the midpoint of the index and little-finger
+cluster) are averaged after gap filling (or fitted as rigid segments with ``derive: rigid``,
+:mod:`splicer.rig.marker_arm`).  ``p4`` is the midpoint of the index and little-finger
 knuckle markers where a set has them — the base of the middle finger, as the virtual ``p4``
 (ALGORITHM.md section 1); it aligned better than the centroid of all four hand markers on
 the evaluation protocol (0.08 body frames less mean error, seeds 100-101).  The other hand
@@ -29,6 +30,7 @@ The constraints file overrides any role, per take and side, and may state the up
     markers:
       hands:
         up: z                       # x, y, z, or -x, -y, -z; detected when omitted
+        derive: averages            # or rigid: p1..p4 and the shoulder from rigid segment fits
         right: {p1: STYLr, p2: STYLu, p3: [LARMl, LARMm], p4: INDEX, shoulder: ACRO_tip}
 """
 
@@ -39,12 +41,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import RoleError
-from .gapfill import GapFill, fill_gaps
-from .markers import Markers
 from ..io.trajectories import Trajectories
 
-__all__ = ["MARKER_ROLES", "MARKER_SETS", "MarkerRoles", "MarkerArm", "find_marker_roles", "marker_sides",
-           "arm_from_trajectories", "detect_marker_up", "FORMAT_UP", "on_frames"]
+__all__ = ["MARKER_ROLES", "MARKER_SETS", "MarkerRoles", "find_marker_roles", "marker_sides", "detect_marker_up",
+           "FORMAT_UP"]
 
 MARKER_ROLES = ("p1", "p2", "p3", "p4", "shoulder")
 
@@ -276,125 +276,3 @@ def detect_marker_up(traj: Trajectories) -> tuple[int, float, str]:
         return k, (1.0 if d[k] >= 0 else -1.0), "pelvis to upper-trunk markers"
     ext = "." + traj.source.rsplit(".", 1)[-1].lower() if "." in traj.source else ""
     return FORMAT_UP.get(ext, 2), 1.0, f"the {ext or 'default'} convention"
-
-
-def _upright(points: np.ndarray, axis: int, sign: float) -> np.ndarray:
-    """Points turned (a proper rotation) so that ``sign * axis`` points along ``+axis``."""
-    if sign > 0:
-        return points
-    out = np.array(points)
-    out[..., axis] *= -1.0
-    out[..., (axis + 1) % 3] *= -1.0  # a half turn about the third axis
-    return out
-
-
-@dataclass(frozen=True, eq=False)
-class MarkerArm:
-    """One side's real markers, ready for the alignment.
-
-    Attributes
-    ----------
-    markers : Markers
-        ``p1..p4`` and the shoulder at the file's rate, every gap filled, vertical along ``up``.
-    roles : MarkerRoles
-    gaps : GapFill
-        The filled ranges (and the filled trajectories).
-    notes : tuple of str
-        Warnings for the report (long gaps, the side guessed, the up axis chosen).
-    """
-
-    markers: Markers
-    roles: MarkerRoles
-    gaps: GapFill
-    notes: tuple
-
-    def report(self, traj: Trajectories) -> dict:
-        """JSON-ready summary: file, rate, set, role labels, up axis, filled ranges."""
-        return {"path": traj.source, "frames": traj.n_frames, "fps": traj.fps, "first_frame": traj.first_frame,
-                "units": traj.units, "marker_set": self.roles.marker_set, "roles": self.roles.labels(traj),
-                "gaps_filled": [f.to_dict() for f in self.gaps.fills]}
-
-
-def arm_from_trajectories(traj: Trajectories, side: str, *, mapping: dict | None = None,
-                          max_gap_s: float = 0.5) -> MarkerArm:
-    """One side's four markers and shoulder from real trajectories: roles, gap filling, clusters averaged.
-
-    Parameters
-    ----------
-    traj : Trajectories
-    side : {"left", "right"}
-    mapping : dict, optional
-        The constraints file's ``markers: <take>:`` entry (roles per side, ``up``).
-    max_gap_s : float
-        Gaps longer than this (seconds) are reported (:mod:`splicer.gapfill`).
-
-    Returns
-    -------
-    MarkerArm
-        ``markers.heading`` is zero (real markers carry no root); use ``theta="window"``.
-
-    Raises
-    ------
-    RoleError
-        A role missing (naming the labels found) or a role marker never seen.
-    """
-    roles = find_marker_roles(traj, side, mapping=mapping)
-    notes = []
-    if not roles.sided:
-        notes.append(f"{traj.source}: the marker names tell no side; taken as the {side} arm")
-    role_cols = sorted({c for cols in roles.roles.values() for c in cols})
-    gaps = fill_gaps(traj, roles.segments, columns=role_cols, max_gap_s=max_gap_s)
-    long = [f for f in gaps.fills if f.too_long]
-    notes += [w for w in gaps.warnings if "never seen" in w]
-    if len(long) <= 3:
-        notes += [w for w in gaps.warnings if "never seen" not in w]
-    else:
-        worst = max(long, key=lambda f: f.stop - f.start)
-        notes.append(f"{traj.source}: {len(long)} gaps of the {side} arm's markers are longer than the {max_gap_s:g} s "
-                     f"limit (longest {worst.describe()}); see gaps_filled (too_long) in the report")
-    filled = gaps.trajectories.points
-    never = [traj.labels[c] for c in role_cols if np.isnan(filled[:, c]).all()]
-    if never:
-        raise RoleError(f"{traj.source}: marker(s) {', '.join(never)} never seen; name others under 'markers:'")
-    by_role = {r: filled[:, list(cols)].mean(axis=1) for r, cols in roles.roles.items()}
-    points = np.stack([by_role[r] for r in ("p1", "p2", "p3", "p4")], axis=1)
-    shoulder = by_role["shoulder"]
-    up_spec = (mapping or {}).get("up")
-    if up_spec is not None:
-        axis, sign = _parse_up(up_spec)
-    else:
-        axis, sign, how = detect_marker_up(traj)
-        if "convention" in how:
-                notes.append(f"{traj.source}: vertical axis taken as {'-' if sign < 0 else '+'}{'xyz'[axis]} "
-                         f"(from {how}); set 'markers: up:' in the constraints file if wrong")
-    points, shoulder = _upright(points, axis, sign), _upright(shoulder, axis, sign)
-    mk = Markers(points, shoulder, np.zeros(traj.n_frames), axis, traj.fps, side)
-    return MarkerArm(mk, roles, gaps, tuple(notes))
-
-
-def on_frames(markers: Markers, n_frames: int, fps: float, *, what: str = "markers") -> tuple[Markers, tuple]:
-    """Markers brought onto the frames of the take solved from them (e.g. its BVH).
-
-    The marker file and the take share a timeline: marker row 0 and take frame 0 are the
-    same instant, each file at its own rate.  Take frame ``i`` (at ``i / fps`` s) gets the
-    markers at ``i / fps`` s (linear; Gaussian anti-aliasing when the rate goes down).
-
-    Returns
-    -------
-    (Markers, notes)
-        ``n_frames`` frames at ``fps``; a take longer than the markers holds their last
-        sample (reported in ``notes`` when the durations differ by more than a frame).
-    """
-    from ..align.passes import resample_markers
-
-    notes = []
-    dur_m, dur_t = (markers.n_frames - 1) / markers.fps, (n_frames - 1) / fps
-    if abs(dur_m - dur_t) > 1.0 / min(fps, markers.fps):
-        notes.append(f"{what}: the markers last {dur_m:.2f} s but the take {dur_t:.2f} s; they are taken to start "
-                     "together" + (" (the markers' last sample is held)" if dur_t > dur_m else ""))
-    mk = resample_markers(markers, fps)
-    if mk.n_frames >= n_frames:
-        idx = np.arange(n_frames)
-    else:
-        idx = np.minimum(np.arange(n_frames), mk.n_frames - 1)
-    return Markers(mk.points[idx], mk.shoulder[idx], mk.heading[idx], mk.up, fps, mk.side), tuple(notes)

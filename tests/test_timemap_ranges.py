@@ -122,3 +122,26 @@ def test_hold_pins_every_pin_holds(tol, rng):
     assert np.all(np.diff(out) >= 0)
     for x, y, t in pins:
         assert y - t - 1e-12 <= out[x] <= y + t + 1e-12
+
+
+# ---------------------------------------------------------------- smooth_time_map
+
+def test_smooth_time_map_of_integer_frames_equals_the_float_one():
+    from splicer.transfer.timemap import smooth_time_map
+
+    steps = np.array([0, 0, 0, 5, 5, 5, 10, 10, 10, 10])
+    as_int = smooth_time_map(steps, sigma_frames=1.0, last=10)
+    as_float = smooth_time_map(steps.astype(np.float64), sigma_frames=1.0, last=10)
+    assert as_int.dtype == np.float64
+    np.testing.assert_array_equal(as_int, as_float)
+    # the smoothing really made fractional frames (an integer filter would truncate them)
+    assert np.any(np.abs(as_float - np.round(as_float)) > 0.1)
+
+
+def test_smooth_time_map_keeps_a_straight_map():
+    from splicer.transfer.timemap import smooth_time_map
+
+    # reflection through the end points continues a straight line, and a Gaussian leaves a
+    # straight line as it is: 0.5 hands frames per body frame stays exactly that
+    tm = 0.5 * np.arange(30)
+    np.testing.assert_allclose(smooth_time_map(tm, sigma_frames=2.0, last=20), tm, rtol=0, atol=1e-9)

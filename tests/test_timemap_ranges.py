@@ -145,3 +145,38 @@ def test_smooth_time_map_keeps_a_straight_map():
     # straight line as it is: 0.5 hands frames per body frame stays exactly that
     tm = 0.5 * np.arange(30)
     np.testing.assert_allclose(smooth_time_map(tm, sigma_frames=2.0, last=20), tm, rtol=0, atol=1e-9)
+
+
+def test_smooth_time_map_of_no_frames_and_of_one_frame():
+    from splicer.transfer.timemap import smooth_time_map
+
+    assert smooth_time_map(np.array([]), sigma_frames=2.0, last=5).shape == (0,)
+    assert smooth_time_map(np.array([3.0]), sigma_frames=2.0, last=5).tolist() == [3.0]
+
+
+def _smooth_reference(tm, sigma):
+    # plain Python: reflect through the end points by pad = min(ceil(4 sigma), n - 1) frames,
+    # then a Gaussian of radius round(4 sigma) (scipy's truncate=4) that repeats the extended
+    # sequence's end values beyond it ("nearest"), then keep the original frames
+    import math
+
+    n = len(tm)
+    pad = min(math.ceil(4 * sigma), n - 1)
+    ext = [2 * tm[0] - tm[k] for k in range(pad, 0, -1)] + list(tm) + [2 * tm[-1] - tm[n - 1 - k]
+                                                                       for k in range(1, pad + 1)]
+    r = int(4 * sigma + 0.5)
+    w = [math.exp(-0.5 * (k / sigma) ** 2) for k in range(-r, r + 1)]
+    s = sum(w)
+    out = []
+    for i in range(pad, pad + n):
+        out.append(sum(wk * ext[min(max(i + k, 0), len(ext) - 1)] for wk, k in zip(w, range(-r, r + 1))) / s)
+    return out
+
+
+@pytest.mark.parametrize("tm", [[0.0, 4.0, 5.0], [0.0, 0.0, 3.0, 9.0, 10.0], list(np.linspace(0, 7, 12) ** 1.5)])
+def test_smooth_time_map_against_a_plain_reference(tm):
+    from splicer.transfer.timemap import smooth_time_map
+
+    # sigma 2: radius 8, longer than the short maps' reflection, so the edge rule matters
+    out = smooth_time_map(np.array(tm), sigma_frames=2.0, last=100)
+    np.testing.assert_allclose(out, np.maximum.accumulate(_smooth_reference(tm, 2.0)), rtol=0, atol=1e-12)

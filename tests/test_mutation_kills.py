@@ -4,11 +4,12 @@ each states the behaviour the surviving mutant changed."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from splicer.model.motion import Motion, Skeleton
 from splicer.rig.roles import ArmRoles
 from splicer.transfer.fingers import graft_fingers
-from test_transfer import BASES, ROOT, ROT, SEG, _body
+from test_transfer import BASES, ROOT, ROT, SEG, _body, _hands
 
 
 def test_graft_first_clash_gets_suffix_2():
@@ -24,3 +25,69 @@ def test_graft_first_clash_gets_suffix_2():
     out, new_arm = graft_fingers(body, arm, hk, harm, 1.0)
     assert out.skeleton.names[4:6] == ("Neck_2", "Tip") and out.skeleton.names[-1] == "Neck"
     assert new_arm.fingers == {"index": (4, 5)}
+
+
+def _coarse_body(last_channels=ROT, index=False):
+    """A CMU-like coarse hand: LeftHand -> LeftFingerBase (at the wrist) -> LFingers -> LFingers2
+    -> LFingers3, one generic finger (role "hand"); optionally an index finger too."""
+    names = ["Hips", "LeftArm", "LeftForeArm", "LeftHand", "LeftFingerBase", "LFingers", "LFingers2", "LFingers3"]
+    parents = [-1, 0, 1, 2, 3, 4, 5, 6]
+    offsets = [(0, 100, 0), (10, 40, 0), (25, 0, 0), (25, 0, 0), (0, 0, 0), (10, 0, 0), SEG, SEG]
+    channels = [ROOT, ROT, ROT, ROT, ROT, ROT, ROT, last_channels]
+    fingers = {"hand": (4, 5, 6, 7)}
+    if index:
+        names += ["LeftHandIndex1", "LeftHandIndex2"]
+        parents += [3, 8]
+        offsets += [BASES["index"], SEG]
+        channels += [ROT, ROT]
+        fingers = {"index": (8, 9), **fingers}
+    sk = Skeleton(tuple(names), np.array(parents), np.array(offsets, float), tuple(channels), None)
+    return sk, ArmRoles("left", 3, 2, 1, fingers)
+
+
+def _hands_with(fingers):
+    """The hands take of test_transfer with only ``fingers`` in its roles (its helper always
+    builds an index finger)."""
+    hk, harm = _hands(fingers=tuple(dict.fromkeys(("index",) + tuple(fingers))))
+    return hk, ArmRoles(harm.side, harm.wrist, harm.elbow, harm.upper_arm,
+                        {f: c for f, c in harm.fingers.items() if f in fingers})
+
+
+@pytest.mark.parametrize("hands_fingers, source", [
+    (("thumb", "index", "middle"), "middle"),  # the middle finger first
+    (("thumb", "index", "ring"), "index"),     # then the index
+    (("thumb", "ring"), "ring"),               # then the ring finger
+])
+def test_coarse_body_hand_follows_the_hands_middle_finger_from_its_knuckle(hands_fingers, source):
+    from splicer.transfer.fingers import finger_map
+
+    body_sk, arm = _coarse_body()
+    hk, harm = _hands_with(hands_fingers)
+    fm = finger_map(body_sk, arm, hk, harm)
+    # LeftFingerBase sits at the wrist: the chain starts at LFingers, which takes the knuckle
+    src = harm.fingers[source]
+    assert fm.body == (5, 6, 7)
+    assert fm.hands == ((src[0],), (src[1],), (src[2],))
+
+
+def test_coarse_body_hand_skips_a_joint_without_three_rotations():
+    from splicer.transfer.fingers import finger_map
+
+    body_sk, arm = _coarse_body(last_channels=())
+    hk, harm = _hands_with(("thumb", "middle"))
+    fm = finger_map(body_sk, arm, hk, harm)
+    m = harm.fingers["middle"]
+    assert fm.body == (5, 6) and fm.hands == ((m[0],), (m[1],))
+
+
+def test_coarse_body_hand_unused_without_a_source_finger_or_beside_real_fingers():
+    from splicer.transfer.fingers import finger_map
+
+    body_sk, arm = _coarse_body()
+    hk, harm = _hands_with(("thumb", "pinky"))  # no middle, index or ring in the hands take
+    assert finger_map(body_sk, arm, hk, harm).body == ()
+    # a body with an index finger besides the generic chain maps its index finger only
+    body_sk, arm = _coarse_body(index=True)
+    hk, harm = _hands(fingers=("thumb", "index", "middle"))
+    fm = finger_map(body_sk, arm, hk, harm)
+    assert fm.body == (8, 9) and fm.hands == ((harm.fingers["index"][0],), (harm.fingers["index"][1],))

@@ -40,6 +40,12 @@ def test_coverage_weights_no_ramp_at_a_covered_end_of_the_take():
     assert coverage_weights(4, (0, 3), window=2).tolist() == [1.0, 1.0, 1.0, 1.0]
 
 
+def test_coverage_weights_one_frame_ramps_next_to_the_ends():
+    # covered 1..4 of 6, window 1: half = 1, k = 1; the ramp frames are row 1 (uncovered row 0
+    # before it) and row 4 (uncovered row 5 after it), each 1/2
+    assert coverage_weights(6, (1, 4), window=1).tolist() == [0.0, 0.5, 1.0, 1.0, 0.5, 0.0]
+
+
 def test_coverage_weights_window_zero_and_none():
     assert coverage_weights(5, (1, 3), window=0).tolist() == [0.0, 1.0, 1.0, 1.0, 0.0]
     w = coverage_weights(3, None, window=4)

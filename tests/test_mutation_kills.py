@@ -91,3 +91,75 @@ def test_coarse_body_hand_unused_without_a_source_finger_or_beside_real_fingers(
     hk, harm = _hands(fingers=("thumb", "index", "middle"))
     fm = finger_map(body_sk, arm, hk, harm)
     assert fm.body == (8, 9) and fm.hands == ((harm.fingers["index"][0],), (harm.fingers["index"][1],))
+
+
+def test_finger_map_bone_alignment_of_a_bent_hands_finger():
+    # body index: base, then bones (3, 0, 0) and (3, 0, 0); its last joint has no bone (no End
+    # Site, no child) and continues the previous one.  The hands index (in the -Z convention,
+    # C turns it back) has its first bone bent to (0, 0, 3), then (3, 0, 0), End Site (2, 0, 0).
+    from splicer.model.rotations import quat_rotate
+    from splicer.transfer.fingers import finger_map
+    from test_transfer import _to_hands
+
+    body_sk, arm = _body(fingers=("index",))
+    hk, harm = _hands(fingers=("index",))
+    h0, h1, h2 = harm.fingers["index"]
+    offsets = np.array(hk.offsets)
+    offsets[h1] = _to_hands((0.0, 0.0, 3.0))
+    hk = Skeleton(hk.names, hk.parents, offsets, hk.channels, hk.end_sites)
+    fm = finger_map(body_sk, arm, hk, harm)
+    b0, b1, b2 = arm.fingers["index"]
+    assert fm.body == (b0, b1, b2) and fm.hands == ((h0,), (h1,), (h2,))
+    ident = np.array([1.0, 0.0, 0.0, 0.0])
+    # A of the base: the body bone +X onto the hands bone +Z (90 degrees about -Y)
+    parent0, a0 = fm.bones[b0]
+    np.testing.assert_allclose(parent0, ident, atol=1e-12)
+    np.testing.assert_allclose(quat_rotate(a0, np.array([1.0, 0.0, 0.0])), [0.0, 0.0, 1.0], atol=1e-12)
+    np.testing.assert_allclose(abs(a0[0]), np.cos(np.pi / 4), atol=1e-12)
+    # the middle bones are parallel (+X both): A = identity, its parent's A is the base's
+    parent1, a1 = fm.bones[b1]
+    np.testing.assert_allclose(parent1, a0, atol=1e-12)
+    np.testing.assert_allclose(quat_rotate(a1, np.array([0.3, -0.5, 0.7])), [0.3, -0.5, 0.7], atol=1e-12)
+    # the last body joint continues its previous bone (+X); the hands End Site is +X: identity
+    parent2, a2 = fm.bones[b2]
+    np.testing.assert_allclose(quat_rotate(parent2, np.array([0.3, -0.5, 0.7])), [0.3, -0.5, 0.7], atol=1e-12)
+    np.testing.assert_allclose(quat_rotate(a2, np.array([0.3, -0.5, 0.7])), [0.3, -0.5, 0.7], atol=1e-12)
+
+
+def test_finger_map_bone_alignment_without_a_hands_end_site_continues_the_previous_bone():
+    # the same bent finger without the hands' End Site: the hands' last bone continues its
+    # previous one (+X), so the last A is the identity again; the base still turns +X onto +Z
+    from splicer.model.rotations import quat_rotate
+    from splicer.transfer.fingers import finger_map
+    from test_transfer import _to_hands
+
+    body_sk, arm = _body(fingers=("index",))
+    hk, harm = _hands(fingers=("index",))
+    h0, h1, h2 = harm.fingers["index"]
+    offsets = np.array(hk.offsets)
+    offsets[h1] = _to_hands((0.0, 0.0, 3.0))
+    offsets[h2] = _to_hands((0.0, 3.0, 0.0))  # the second hands bone along +Y
+    hk = Skeleton(hk.names, hk.parents, offsets, hk.channels, np.full((len(hk.names), 3), np.nan))
+    fm = finger_map(body_sk, arm, hk, harm)
+    b0, b1, b2 = arm.fingers["index"]
+    x = np.array([1.0, 0.0, 0.0])
+    np.testing.assert_allclose(quat_rotate(fm.bones[b0][1], x), [0.0, 0.0, 1.0], atol=1e-12)
+    np.testing.assert_allclose(quat_rotate(fm.bones[b1][1], x), [0.0, 1.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(quat_rotate(fm.bones[b2][1], x), [0.0, 1.0, 0.0], atol=1e-12)
+
+
+def test_finger_map_last_paired_joint_takes_its_bone_from_its_child():
+    # the body pinky's third joint has no rotation channels, so the pinky pairs two joints; the
+    # second one's bone is the offset of that unpaired child, +X (3, 0, 0), as is the hands'
+    # (its next joint): A = identity
+    from splicer.model.rotations import quat_rotate
+    from splicer.transfer.fingers import finger_map
+
+    body_sk, arm = _body(fingers=("index", "pinky"), pinky3_channels=())
+    hk, harm = _hands(fingers=("index", "pinky"))
+    fm = finger_map(body_sk, arm, hk, harm)
+    p1, p2, p3 = arm.fingers["pinky"]
+    assert p3 not in fm.body and fm.body[-2:] == (p1, p2)
+    v = np.array([0.3, -0.5, 0.7])
+    np.testing.assert_allclose(quat_rotate(fm.bones[p2][1], v), v, atol=1e-12)
+    np.testing.assert_allclose(quat_rotate(fm.bones[p1][1], v), v, atol=1e-12)

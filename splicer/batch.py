@@ -19,17 +19,16 @@ no hand found, ...) is reported in the summary and the others go on.
 The summary ``<out>/summary.{md,csv}`` (and ``summary.html`` with the alignment plots when
 asked) has one row per pair: status, frames, seconds, confidence (when the report has one),
 warnings.
+
+The summary rows and files are :mod:`splicer.batch_summary`, the folders mode
+:mod:`splicer.batch_folders`; this module keeps resuming, one pair, the Dask driver and the CLI.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
 import hashlib
-import html
-import io
 import json
-import math
 import os
 import sys
 import time
@@ -37,9 +36,11 @@ import uuid
 from contextlib import contextmanager
 from pathlib import Path
 
+# pair_folders, write_summary and the manifest names are re-exported: the batch API in one place
+from .batch_folders import pair_folders
+from .batch_summary import _write_atomic, summary_row, write_summary
 from .errors import SplicerError
-from .io.atomic import write_text_atomic
-from .manifest import ManifestError, PairJob, read_manifest  # re-exported: the batch API in one place
+from .manifest import ManifestError, PairJob, read_manifest
 
 __all__ = ["PairJob", "ManifestError", "read_manifest", "job_hash", "is_finished", "run_pair", "run_batch",
            "pair_folders", "dask_client", "write_summary", "main"]
@@ -88,39 +89,7 @@ def is_finished(job: PairJob, out_dir: Path, digest: str | None = None) -> dict 
     return rep if b.get("hash") == (digest or job_hash(job)) and b.get("status") == "done" else None
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    """``text`` to ``path`` through the package's one atomic writer (a replaced file keeps its
-    mode), creating the folder first."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(path, text)
-
-
 # ---------------------------------------------------------------- one pair (a Dask task)
-
-def _confidence(rep: dict):
-    """A single confidence figure from a report, when it has one (the lowest over sides)."""
-    vals = []
-    for d in [rep] + list((rep.get("sides") or {}).values()):
-        c = d.get("confidence") if isinstance(d, dict) else None
-        if isinstance(c, dict):
-            c = next((c[k] for k in ("score", "overall", "value", "mean") if isinstance(c.get(k), (int, float))), None)
-        if isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c):
-            vals.append(float(c))
-    return min(vals) if vals else None
-
-
-def _row(job: PairJob, status: str, *, rep: dict | None = None, seconds: float | None = None,
-         error: str = "", report: str = "", plot: str = "") -> dict:
-    rep = rep or {}
-    sides = rep.get("sides") or {}
-    costs = [s["pass1"]["cost"] for s in sides.values() if isinstance(s, dict) and s.get("pass1")]
-    return {"name": job.name, "status": status, "body": job.body, "hands": job.hands, "output": job.output,
-            "body_frames": (rep.get("body") or {}).get("frames"),
-            "hands_frames": (rep.get("hands") or {}).get("frames"),
-            "sides": ",".join(sides), "pass1_cost": round(sum(costs), 3) if costs else None,
-            "confidence": _confidence(rep), "seconds": round(seconds, 2) if seconds is not None else None,
-            "warnings": list(rep.get("warnings") or []), "error": error, "report": report, "plot": plot}
-
 
 def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None = None,
              threads: int | None = None) -> dict:
@@ -172,14 +141,14 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
                         "seconds": round(seconds, 3), "cpu_seconds": round(time.thread_time() - c0, 3),
                         "pid": os.getpid(), "plot": pp}
         _write_atomic(rp, json.dumps(rep, indent=1))
-        return _row(job, "done", rep=rep, seconds=seconds, report=str(rp), plot=pp)
+        return summary_row(job, "done", rep=rep, seconds=seconds, report=str(rp), plot=pp)
     except SplicerError as e:
-        return _row(job, "failed", seconds=time.perf_counter() - t0, error=str(e))
+        return summary_row(job, "failed", seconds=time.perf_counter() - t0, error=str(e))
     except OSError as e:  # the output folder or the report cannot be written
-        return _row(job, "failed", seconds=time.perf_counter() - t0,
+        return summary_row(job, "failed", seconds=time.perf_counter() - t0,
                     error=f"{e.filename or out}: cannot write ({e.strerror or e})")
     except Exception as e:  # noqa: BLE001 - a bug on one pair must not stop the batch; reported in full
-        return _row(job, "failed", seconds=time.perf_counter() - t0, error=f"internal error: {type(e).__name__}: {e}")
+        return summary_row(job, "failed", seconds=time.perf_counter() - t0, error=f"internal error: {type(e).__name__}: {e}")
     finally:
         if before is not None:
             import numba
@@ -266,7 +235,7 @@ def run_batch(jobs: list[PairJob], out_dir, client, *, plot: bool = False, force
         digest = job_hash(j)
         rep = None if force else is_finished(j, out, digest)
         if rep is not None:
-            rows[j.name] = _row(j, "done earlier", rep=rep, seconds=rep["batch"].get("seconds"),
+            rows[j.name] = summary_row(j, "done earlier", rep=rep, seconds=rep["batch"].get("seconds"),
                                 report=str(_report_path(out, j)), plot=rep["batch"].get("plot", ""))
         else:
             todo.append((j, digest))
@@ -281,7 +250,7 @@ def run_batch(jobs: list[PairJob], out_dir, client, *, plot: bool = False, force
         try:
             row = fut.result()
         except Exception as e:  # noqa: BLE001 - a worker lost mid-pair: report, go on
-            row = _row(j, "failed", error=f"task failed: {type(e).__name__}: {e}")
+            row = summary_row(j, "failed", error=f"task failed: {type(e).__name__}: {e}")
         rows[j.name] = row
         done += 1
         msg = row["error"] if row["status"] != "done" else f"{row['seconds']:.1f} s, {len(row['warnings'])} warning(s)"
@@ -289,141 +258,6 @@ def run_batch(jobs: list[PairJob], out_dir, client, *, plot: bool = False, force
     ordered = [rows[j.name] for j in jobs] + list(extra_rows)
     write_summary(ordered, out, html_page=plot)
     return ordered
-
-
-# ---------------------------------------------------------------- pairing two folders
-
-def _cost_row(hands_sig, body_sigs, band):
-    from .pairing import pair_cost
-
-    if hands_sig.error:
-        return [math.nan] * len(body_sigs)
-    return [math.nan if b.error else pair_cost(b, hands_sig, band=band) for b in body_sigs]
-
-
-def pair_folders(body_dir, hands_dir, out_dir, client, *, fps: float = 5.0, margin: float | None = None,
-                 max_cost: float | None = None, band: str = "60%", options: dict | None = None, note=None):
-    """Pair each hands take of ``hands_dir`` with a body take of ``body_dir`` by coarse alignment cost.
-
-    Writes ``pairing.md`` and ``pairing.csv`` (the cost table and the decisions) to ``out_dir``.
-
-    Returns
-    -------
-    jobs : list of PairJob
-        One per accepted pair: output ``<out_dir>/<body stem>.bvh``, name the body stem.
-    decisions : list of PairDecision
-    costs : np.ndarray [shape=(n_hands, n_body)]
-        Pass-1 D1 cost per path step at ``fps``.
-    """
-    import numpy as np
-
-    from .pairing import DEFAULT_MARGIN, cost_table_markdown, decide_pairs, take_signature
-
-    margin = DEFAULT_MARGIN if margin is None else margin
-    note = note or (lambda msg: None)
-    bodies = sorted(str(p.resolve()) for p in Path(body_dir).glob("*.bvh"))
-    hands = sorted(str(p.resolve()) for p in Path(hands_dir).glob("*.bvh"))
-    for d, files, what in ((body_dir, bodies, "body"), (hands_dir, hands, "hands")):
-        if not Path(d).is_dir():
-            raise SplicerError(f"{d}: {what} folder not found")
-        if not files:
-            raise SplicerError(f"{d}: no .bvh files in the {what} folder")
-    hands_side = (options or {}).get("hands_side")
-    bsig = [client.submit(take_signature, b, fps=fps, pure=False) for b in bodies]
-    hsig = [client.submit(take_signature, h, fps=fps, hands_side=hands_side, pure=False) for h in hands]
-    rows = client.gather([client.submit(_cost_row, h, bsig, band, pure=False) for h in hsig])
-    costs = np.array(rows, dtype=np.float64).reshape(len(hands), len(bodies))
-    decisions = decide_pairs(costs, bodies, hands, margin=margin, max_cost=max_cost)
-    sig_errors = {s.path: s.error for s in client.gather(bsig + hsig) if s.error}
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    md = [f"# Pairing: {len(hands)} hands takes x {len(bodies)} body takes", "",
-          f"Cost: pass-1 phase metric D1 per path step (0..96) at {fps:g} fps, band {band}; "
-          f"a pair needs the best cost at least {100 * margin:.0f}% below the runner-up (both ways).", "",
-          cost_table_markdown(costs, bodies, hands), "", "| hands | body | cost | runner-up | margin | decision |",
-          "|---|---|---:|---:|---:|---|"]
-    for dcs in decisions:
-        mg = f"{100 * dcs.margin:.0f}%" if math.isfinite(dcs.margin) else "-"
-        md.append(f"| {Path(dcs.hands).name} | {Path(dcs.body).name if dcs.body else '-'} | {dcs.cost:.3g} | "
-                  f"{dcs.second:.3g} | {mg} | {dcs.reason} |")
-    for path, err in sig_errors.items():
-        md.append(f"\n- {Path(path).name}: {err}")
-    _write_atomic(out / "pairing.md", "\n".join(md) + "\n")
-    buf = io.StringIO()
-    w = csv.writer(buf)
-    w.writerow(["hands"] + [Path(b).name for b in bodies] + ["paired_body", "margin", "decision"])
-    for i, dcs in enumerate(decisions):
-        w.writerow([Path(hands[i]).name] + [f"{v:.4f}" for v in costs[i]]
-                   + [Path(dcs.body).name if dcs.body else "", f"{dcs.margin:.4f}", dcs.reason])
-    _write_atomic(out / "pairing.csv", buf.getvalue())
-    jobs = [PairJob(Path(d.body).stem, d.body, d.hands, str((out / f"{Path(d.body).stem}.bvh").resolve()),
-                    None, dict(options or {})) for d in decisions if d.body]
-    for d in decisions:
-        note(f"{Path(d.hands).name}: " + (f"-> {Path(d.body).name} (cost {d.cost:.3g}, margin {100 * d.margin:.0f}%)"
-                                          if d.body else f"refused: {d.reason}"))
-    return jobs, decisions, costs
-
-
-# ---------------------------------------------------------------- summary
-
-_COLUMNS = ["name", "status", "body_frames", "hands_frames", "sides", "pass1_cost", "confidence", "seconds",
-            "warnings", "error", "body", "hands", "output", "report"]
-
-
-def _cell(v) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, list):
-        return " | ".join(v)
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    return str(v)
-
-
-def write_summary(rows: list[dict], out_dir, *, html_page: bool = False) -> None:
-    """``summary.csv``, ``summary.md`` (and ``summary.html`` with plots) in ``out_dir``."""
-    out = Path(out_dir)
-    buf = io.StringIO()
-    w = csv.writer(buf)
-    w.writerow(_COLUMNS)
-    for r in rows:
-        w.writerow([_cell(r.get(c)) for c in _COLUMNS])
-    _write_atomic(out / "summary.csv", buf.getvalue())
-
-    counts = {}
-    for r in rows:
-        counts[r["status"]] = counts.get(r["status"], 0) + 1
-    md = [f"# Batch summary: {len(rows)} pairs (" + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())) + ")", "",
-          "| pair | status | body frames | hands frames | sides | confidence | seconds | warnings |",
-          "|---|---|---:|---:|---|---:|---:|---|"]
-    for r in rows:
-        warn = r["error"] or ("; ".join(r["warnings"]) if r["warnings"] else "")
-        md.append(f"| {r['name']} | {r['status']} | {_cell(r['body_frames'])} | {_cell(r['hands_frames'])} | "
-                  f"{r['sides']} | {_cell(r['confidence'])} | {_cell(r['seconds'])} | {warn.replace('|', '/')} |")
-    _write_atomic(out / "summary.md", "\n".join(md) + "\n")
-    if not html_page:
-        return
-    e = html.escape
-    parts = ["<!doctype html><html><head><meta charset='utf-8'><title>splice-batch summary</title>",
-             "<style>body{font-family:sans-serif}table{border-collapse:collapse}td,th{border:1px solid #ccc;"
-             "padding:3px 6px;vertical-align:top}.failed,.refused{background:#fdd}img{max-width:900px}</style>",
-             f"</head><body><h1>{e(md[0][2:])}</h1><table><tr><th>pair</th><th>status</th><th>frames (body/hands)</th>"
-             "<th>confidence</th><th>seconds</th><th>warnings</th></tr>"]
-    for r in rows:
-        warn = [r["error"]] if r["error"] else r["warnings"]
-        parts.append(f"<tr class='{e(r['status'].split()[0])}'><td><a href='#{e(r['name'])}'>{e(r['name'])}</a></td>"
-                     f"<td>{e(r['status'])}</td><td>{e(_cell(r['body_frames']))} / {e(_cell(r['hands_frames']))}</td>"
-                     f"<td>{e(_cell(r['confidence']))}</td><td>{e(_cell(r['seconds']))}</td>"
-                     f"<td>{'<br>'.join(e(x) for x in warn)}</td></tr>")
-    parts.append("</table>")
-    for r in rows:
-        if r.get("plot"):
-            rel = os.path.relpath(r["plot"], out)
-            parts.append(f"<h2 id='{e(r['name'])}'>{e(r['name'])}</h2><p>{e(Path(r['body']).name)} + "
-                         f"{e(Path(r['hands']).name)} &rarr; {e(r['output'])}</p>"
-                         f"<img src='{e(rel)}' alt='alignment plot'>")
-    parts.append("</body></html>")
-    _write_atomic(out / "summary.html", "\n".join(parts))
 
 
 # ---------------------------------------------------------------- CLI
@@ -480,7 +314,7 @@ def main(argv=None) -> int:
                 out = Path(args.out_dir)
                 jobs, decisions, _ = pair_folders(args.body_dir, args.hands_dir, out, client, fps=args.pair_fps,
                                                   margin=args.margin, max_cost=args.max_cost, note=note)
-                extra = [_row(PairJob(Path(d.hands).stem, "", d.hands, ""), "refused", error=d.reason)
+                extra = [summary_row(PairJob(Path(d.hands).stem, "", d.hands, ""), "refused", error=d.reason)
                          for d in decisions if d.body is None]
             rows = run_batch(jobs, out, client, plot=args.plot, force=args.force, note=note, extra_rows=extra)
     except SplicerError as e:

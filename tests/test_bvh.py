@@ -338,7 +338,7 @@ def test_failed_write_leaves_no_temp_and_keeps_destination(tmp_path, monkeypatch
 
     from splicer.io import bvh_write
 
-    monkeypatch.setattr(bvh_write, "format_motion_block_g", fail)  # fails mid-write, after the header
+    monkeypatch.setattr(bvh_write, "_motion_text", fail)  # fails mid-write, after the header
     expected = BVHError if isinstance(exc, OSError) else RuntimeError
     with pytest.raises(expected) as info:
         write_bvh(m, dest)

@@ -9,7 +9,9 @@
    cross-checked (:func:`splicer.io.bvh_header.cross_check_with_bvhio`).
 3. The motion rows are parsed in place from the bytes by the compiled parser of
    :mod:`splicer.io.fastparse` (each value equals ``float(token)`` bit for bit; compiled on
-   first use and cached), not by bvhio, which builds one ``Pose`` per joint and frame and
+   first use and cached); a block under :data:`FAST_MIN_BYTES` (8 MiB) by ``np.loadtxt``
+   instead, which gives the same values and the same errors without importing numba.  Not
+   by bvhio, which builds one ``Pose`` per joint and frame and
    converts angles to quaternions, losing the raw values (e.g. rotations stored in 0..360).
    A malformed value, a row with the wrong number of values, a truncated block: one
    :class:`~splicer.errors.BVHError` with the file's 1-based line.
@@ -32,6 +34,9 @@ from ..model.motion import Motion, Skeleton
 __all__ = ["read_bvh"]
 
 _HEADER_CHUNK = 1 << 16
+# Motion blocks from this size on go to the compiled parser; smaller ones to numpy, which
+# is faster than importing numba (0.3-0.7 s) and loading or compiling its kernel.
+FAST_MIN_BYTES = 8 << 20
 _LINE_BREAK = re.compile(rb"\r\n|\r|\n")
 
 
@@ -96,6 +101,8 @@ def _read_bytes(p: Path, spath: str):
         raise BVHError(f"the file has {n_lines:,} lines, more than the limit of {limits.MAX_LINES:,}", path=spath)
     if not _has_text(data):
         raise BVHError("the file is empty, expected a BVH file starting with HIERARCHY", path=spath, line=1)
+    if isinstance(data, bytes):  # small inputs: one array type for the compiled parser
+        data = bytearray(data)
     nul = data.find(b"\x00")
     if nul >= 0:
         line = data.count(b"\n", 0, nul) + 1
@@ -165,6 +172,8 @@ def _parse_motion(data, offset: int, scan: Scan, path: str) -> np.ndarray:
     block = memoryview(data)[offset:]
     if C == 0:
         return _parse_no_channels(bytes(block), scan, path)
+    if len(block) < FAST_MIN_BYTES:
+        return _parse_small(bytes(block), scan, path)
     from .fastparse import count_rows, parse_block  # compiled on first use
 
     res = parse_block(block, C, first_line, max_rows=T, max_abs=limits.MAX_ABS_VALUE)
@@ -192,6 +201,45 @@ def _parse_motion(data, offset: int, scan: Scan, path: str) -> np.ndarray:
     return res.values
 
 
+def _parse_small(block: bytes, scan: Scan, path: str) -> np.ndarray:
+    """:func:`_parse_motion` for a small block, with numpy: the same values and errors."""
+    T, C = scan.frames, scan.n_channels
+    rows: list[str] = []
+    row_lines: list[int] = []
+    extra = 0
+    for k, text in enumerate(_decode_lines(block)):
+        if text.strip():
+            if len(rows) < T:
+                rows.append(text)
+                row_lines.append(scan.data_start + 1 + k)
+            else:
+                extra += 1
+    values = None
+    if all(r.isascii() and len(r.split()) == C for r in rows):
+        try:
+            values = np.loadtxt(rows, dtype=np.float64, comments=None, ndmin=2) if rows else np.zeros((0, C))
+        except ValueError:
+            values = None
+    if values is None or values.shape != (len(rows), C) or not (np.abs(values) <= limits.MAX_ABS_VALUE).all():
+        for k, r in enumerate(rows):  # the first problem in file order, as the compiled parser reports it
+            tokens = r.split()
+            for col, t in enumerate(tokens):
+                number(t, f"value {col + 1} of the frame row", path, row_lines[k])
+            if len(tokens) != C:
+                raise BVHError(f"expected {C} values per frame (one per channel), found {len(tokens)}",
+                               path=path, line=row_lines[k])
+        raise BVHError("the motion data could not be parsed as numbers", path=path, line=row_lines[0])
+    if len(rows) < T:
+        last = row_lines[-1] if row_lines else scan.data_start
+        raise BVHError(f"Frames: says {T} but the data section has only {len(rows)} rows "
+                       f"(the file ends after line {last}): the file is truncated",
+                       path=path, line=scan.frames_line)
+    if extra:
+        warnings.warn(f"{path}: the data section has {T + extra} rows but Frames: (line {scan.frames_line}) "
+                      f"says {T}; the first {T} rows are used", SplicerWarning, stacklevel=4)
+    return values
+
+
 def _parse_no_channels(block: bytes, scan: Scan, path: str) -> np.ndarray:
     """A hierarchy without channels: every non-blank data line is an error (no values expected)."""
     T = scan.frames
@@ -208,5 +256,5 @@ def _parse_no_channels(block: bytes, scan: Scan, path: str) -> np.ndarray:
                        path=path, line=scan.data_start + 1 + k)
     if rows:
         warnings.warn(f"{path}: the data section has {len(rows)} rows but Frames: (line {scan.frames_line}) "
-                      f"says 0; the first 0 rows are used", SplicerWarning, stacklevel=3)
+                      f"says 0; the first 0 rows are used", SplicerWarning, stacklevel=4)
     return np.zeros((T, 0))

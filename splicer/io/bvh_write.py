@@ -6,7 +6,8 @@ every channel from quaternions (0..360 angles come back in -180..180, channel se
 re-chosen) and formats value by value in Python.  The motion block is formatted as
 ``%.12g`` by :func:`splicer.io.fastformat.format_motion_block_g` (the same bytes as
 ``np.savetxt(fmt="%.12g")``, about 5x faster, written chunk by chunk so the text of the
-whole file is never in memory): typical files are reproduced digit for digit, computed
+whole file is never in memory; blocks under :data:`FAST_MIN_VALUES` values by
+``np.savetxt`` itself, so a small file does not import numba): typical files are reproduced digit for digit, computed
 values to about 1e-12 relative.  The text goes to a temporary file in the destination
 directory, moved into place with ``os.replace`` (:mod:`splicer.io.atomic`): a failed write
 leaves no partial file and never clobbers an existing one.  Inside an open
@@ -16,19 +17,22 @@ every output of the transaction is complete.
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
 import numpy as np
 
 from .atomic import write_atomic
-from .fastformat import format_motion_block_g
 from ..errors import BVHError
 from ..model.motion import Motion
 
 __all__ = ["write_bvh"]
 
 _FLOAT_FMT = "{:.12g}"
+# From this many values on the motion block goes to the compiled formatter; below, to
+# np.savetxt (the same bytes), which is faster than importing numba and loading its kernel.
+FAST_MIN_VALUES = 1_000_000
 
 
 def write_bvh(motion: Motion, path: str | os.PathLike) -> None:
@@ -71,10 +75,26 @@ def write_bvh(motion: Motion, path: str | os.PathLike) -> None:
 
     def write(f) -> None:
         f.write(text_header.encode("utf-8"))
-        for piece in format_motion_block_g(motion.channels):  # streamed: a few MB at a time
+        for piece in _motion_text(motion.channels):
             f.write(piece)
 
     write_atomic(dest, write, what="file", error=lambda message: BVHError(message, path=spath))
+
+
+def _motion_text(values: np.ndarray):
+    """The motion block as '%.12g' text, in pieces (compiled for large blocks, numpy for small)."""
+    T, C = values.shape
+    if C == 0:
+        if T:
+            yield b"\n" * T
+    elif T * C >= FAST_MIN_VALUES:
+        from .fastformat import format_motion_block_g  # numba: compiled on first use
+
+        yield from format_motion_block_g(values)  # streamed, 4,096 frames at a time
+    elif T:
+        buf = io.BytesIO()
+        np.savetxt(buf, values, fmt="%.12g", delimiter=" ")
+        yield buf.getvalue()
 
 
 def _format_header(motion: Motion, path: str) -> str:

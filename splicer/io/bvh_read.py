@@ -96,7 +96,8 @@ def _read_bytes(p: Path, spath: str):
     """The file's bytes (bytes or bytearray), checked for size, line count, emptiness and NUL."""
     data = limits.read_input(p, max_bytes=limits.MAX_BVH_BYTES, what="BVH file",
                              error=lambda message: BVHError(message, path=spath))
-    n_lines = max(data.count(b"\n"), data.count(b"\r")) + 1  # CR-only files too
+    n_cr = data.count(b"\r") if data.find(b"\r") >= 0 else 0  # a fast scan when there is none
+    n_lines = max(data.count(b"\n"), n_cr) + 1  # CR-only files too
     if n_lines > limits.MAX_LINES:
         raise BVHError(f"the file has {n_lines:,} lines, more than the limit of {limits.MAX_LINES:,}", path=spath)
     if not _has_text(data):

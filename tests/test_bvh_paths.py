@@ -187,3 +187,29 @@ def test_large_take_round_trip_through_the_compiled_path(tmp_path, rng):
     write_bvh(Motion(sk, ch, 1 / 120, source="big"), tmp_path / "big.bvh")
     assert (tmp_path / "big.bvh").stat().st_size > bvh_read.FAST_MIN_BYTES
     np.testing.assert_array_equal(read_bvh(tmp_path / "big.bvh").channels, ch)
+
+
+# -- parse_block: the limit, the stop position, the last row's line ---------------------------------
+def test_parse_block_end_and_last_row_line():
+    from splicer.io.fastparse import parse_block
+
+    buf = b"1 2\n\n3 4\r\n5 6\n7 8\n"  # lines 10..14 (line 11 blank)
+    res = parse_block(buf, 2, 10, max_rows=3)
+    assert res.error is None and res.values.tolist() == [[1, 2], [3, 4], [5, 6]]
+    assert res.end == buf.index(b"7") and res.last_row_line == 13
+    res = parse_block(buf, 2, 10)
+    assert res.end == len(buf) and res.last_row_line == 14 and res.values.shape == (4, 2)
+    assert parse_block(b"\n\n", 2, 1).last_row_line == 0
+
+
+@pytest.mark.parametrize("token, kind", [("100.5", "range"), ("-100.5", "range"), ("100", None),
+                                         ("1" * 30, "range"), ("1e999", "nonfinite"), ("99.999999999999999999", None)])
+def test_parse_block_max_abs(token, kind):
+    from splicer.io.fastparse import parse_block
+
+    res = parse_block(f"0 0\n1 {token}\n".encode(), 2, 5, max_abs=100.0)
+    if kind is None:
+        assert res.error is None and res.values[1, 1] == float(token)
+    else:
+        assert (res.error.kind, res.error.line, res.error.column, res.error.token) == (kind, 6, 2, token)
+        assert res.values.shape == (1, 2)  # the rows before the problem

@@ -7,9 +7,9 @@ Usage::
 The pair (made once, kept in ``--dir``, never in the repository): the synthetic speaker
 (:func:`splicer.evaluation.synth.make_gesture_take`, seed ``--seed``) for ``--minutes`` at 60
 fps, separated (:func:`splicer.evaluation.separate.separate`, ALGORITHM.md section 8, local
-speed of the hands clock 0.8-1.25x) into a body take and a hands take at 120 fps; the hands take is then padded to ``--hands-minutes``
-with unrelated gestures (another speaker, seed + 1) before and after, so its ends are open
-(the splice runs with the default ``ends=auto``).
+speed of the hands clock 0.8-1.25x) into a body take and a hands take at 120 fps; the hands
+take is then padded to ``--hands-minutes`` with unrelated gestures (another speaker, seed + 1)
+before and after, so its ends are open (the splice runs with the default ``ends=auto``).
 
 The ``splice`` command runs in a child process under ``/usr/bin/time -v`` (peak memory: its
 maximum resident set size) inside a pseudo-terminal (``script``), so the progress bar is

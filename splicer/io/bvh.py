@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import os  # noqa: F401  (tests patch os.replace through this module)
 
-import numpy as np  # noqa: F401
-
 from .bvh_header import load_bvhio as _bvhio  # noqa: F401
 from .bvh_read import read_bvh
 from .bvh_write import write_bvh

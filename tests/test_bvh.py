@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from splicer.io import bvh as bvh_module
+from splicer.io import bvh_header
 from splicer.io.bvh import read_bvh, write_bvh
 from splicer.errors import BVHError, SplicerWarning
 from splicer.model.motion import Motion, Skeleton
@@ -335,7 +336,9 @@ def test_failed_write_leaves_no_temp_and_keeps_destination(tmp_path, monkeypatch
     def fail(*args, **kwargs):
         raise exc
 
-    monkeypatch.setattr(bvh_module.np, "savetxt", fail)
+    from splicer.io import bvh_write
+
+    monkeypatch.setattr(bvh_write, "_motion_text", fail)  # fails mid-write, after the header
     expected = BVHError if isinstance(exc, OSError) else RuntimeError
     with pytest.raises(expected) as info:
         write_bvh(m, dest)
@@ -394,7 +397,7 @@ def test_scanner_used_when_bvhio_fails(monkeypatch):
         def readAsBvh(self, path, loadKeyFrames):
             raise SyntaxError("bvhio cannot parse this")
 
-    monkeypatch.setattr(bvh_module, "_bvhio", Broken)
+    monkeypatch.setattr(bvh_header, "load_bvhio", Broken)
     m = read_bvh(DATA / "two_joints_zxy.bvh")
     assert m.skeleton.names == ("Hips", "Arm")
 
@@ -408,7 +411,7 @@ def test_bvhio_disagreement_is_reported(monkeypatch):
             bvh.Root.Children[0].Offset.x += 1.0
             return bvh
 
-    monkeypatch.setattr(bvh_module, "_bvhio", Shifted)
+    monkeypatch.setattr(bvh_header, "load_bvhio", Shifted)
     with pytest.raises(BVHError, match="offset of joint 'Arm' differs"):
         read_bvh(DATA / "two_joints_zxy.bvh")
 

@@ -15,14 +15,10 @@ exact doubles and IEEE arithmetic rounds the single operation correctly, so the 
 digits, huge exponents) are handed to Python's ``float`` afterwards; in the real captures of
 ``../shared/motions`` that is 3,930 of 1.77 million values (0.2 %, all in the ZEGGS take,
 e.g. ``-1.4024509999999992``).  ``nan``/``inf`` (and ``1e999``, which ``float`` makes
-infinite) and anything else are errors.
+infinite), values beyond an optional magnitude limit and anything else are errors.
 
-Formatting (:func:`format_motion_block`)
------------------------------------------
-Each value ``v`` is written with a fixed number of decimals ``d`` as the integer
-``k = rint(v * 10**d)`` printed with a decimal point (trailing zeros optionally trimmed).
-For any ``v`` that has at most ``d`` decimals (a value read from such a file), the text is
-the shortest one of ``'%.{d}f' % v`` and reads back to exactly ``v``.
+The formatters (:func:`format_motion_block`, :func:`format_motion_block_g`) are in
+:mod:`splicer.io.fastformat` and re-exported here.
 """
 
 from __future__ import annotations
@@ -33,14 +29,15 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-__all__ = ["ParseError", "parse_motion_block", "count_rows", "format_motion_block"]
+__all__ = ["ParseError", "ParsedBlock", "parse_block", "parse_motion_block", "count_rows", "format_motion_block",
+           "format_motion_block_g"]
 
 _POW10 = np.array([10.0 ** k for k in range(23)])  # exactly representable: 1e0 .. 1e22
 _MANT_MAX = 1 << 53
 _FALLBACK_CAP = 4096
 
 # kernel status codes
-_DONE, _BAD_TOKEN, _BAD_COUNT, _FALLBACK_FULL, _ROWS_FULL = 0, 1, 2, 3, 4
+_DONE, _BAD_TOKEN, _BAD_COUNT, _FALLBACK_FULL, _ROWS_FULL, _BAD_RANGE = 0, 1, 2, 3, 4, 5
 
 
 @dataclass(frozen=True)
@@ -57,8 +54,8 @@ class ParseError:
         1-based index of the value within the row: the malformed value, or for a wrong
         count the number of values found.
     kind : str
-        ``"token"`` (not a number), ``"nonfinite"`` (nan/inf) or ``"count"`` (too few or
-        too many values in the row).
+        ``"token"`` (not a number), ``"nonfinite"`` (nan/inf), ``"range"`` (beyond the
+        ``max_abs`` limit) or ``"count"`` (too few or too many values in the row).
     token : str
         The offending text (``""`` for a count error).
     expected : int
@@ -77,6 +74,8 @@ class ParseError:
         """One line for a :class:`~splicer.errors.BVHError` (the caller adds file and line)."""
         if self.kind == "count":
             return f"expected {self.expected} values per frame (one per channel), found {self.column}"
+        if self.kind == "range":
+            return f"value {self.column} of frame {self.row}: {self.token!r} is too large in magnitude"
         if self.kind == "nonfinite":
             return f"value {self.column} of frame {self.row} is not a finite number: {self.token!r}"
         return f"value {self.column} of frame {self.row}: expected a number, found {self.token!r}"
@@ -88,11 +87,13 @@ def _is_space(c):
 
 
 @njit(cache=True)
-def _parse_kernel(buf, pos, line, row, C, out, fb, max_rows, pow10):
-    """Parse from byte ``pos`` (at a line start).  Returns (status, pos, line, row, n_fb, err_pos, err_end, err_col).
+def _parse_kernel(buf, pos, line, row, C, out, fb, max_rows, pow10, max_abs):
+    """Parse from byte ``pos`` (at a line start).
 
-    ``out`` [shape=(R, C)] receives rows ``row ..``; ``fb``
-    [shape=(F, 5)] receives (start, end, row, col, line) of tokens left to Python's float.
+    Returns (status, pos, line, row, n_fb, err_start, err_end, err_col, last_row_line).
+    ``out`` [shape=(R, C)] receives rows ``row ..``; ``fb`` [shape=(F, 5)] receives
+    (start, end, row, col, line) of tokens left to Python's float; a value beyond
+    ``max_abs`` in magnitude stops with ``_BAD_RANGE``.
     """
     n = buf.shape[0]
     nfb = 0
@@ -111,20 +112,20 @@ def _parse_kernel(buf, pos, line, row, C, out, fb, max_rows, pow10):
             # end of a line: close the row (if any)
             if col > 0:
                 if col != C:
-                    return _BAD_COUNT, pos, row_line, row, nfb, pos, pos, col
+                    return _BAD_COUNT, pos, row_line, row, nfb, pos, pos, col, row_line
                 row += 1
                 col = 0
             if pos >= n:
-                return _DONE, pos, line, row, nfb, 0, 0, 0
+                return _DONE, pos, line, row, nfb, 0, 0, 0, row_line
             pos += 1
             line += 1
             if row >= max_rows:
-                return _ROWS_FULL, pos, line, row, nfb, 0, 0, 0
+                return _ROWS_FULL, pos, line, row, nfb, 0, 0, 0, row_line
             continue
         if col == 0:
-            row_line = line
             if nfb >= F - C:  # room for a whole row of fallbacks
-                return _FALLBACK_FULL, pos, line, row, nfb, 0, 0, 0
+                return _FALLBACK_FULL, pos, line, row, nfb, 0, 0, 0, row_line
+            row_line = line
         # a token
         start = pos
         neg = False
@@ -182,7 +183,7 @@ def _parse_kernel(buf, pos, line, row, C, out, fb, max_rows, pow10):
             end = pos
             while end < n and not (_is_space(buf[end]) or buf[end] == 10):
                 end += 1
-            return _BAD_TOKEN, pos, line, row, nfb, start, end, col + 1
+            return _BAD_TOKEN, pos, line, row, nfb, start, end, col + 1, row_line
         if col < C:
             if slow or mant > _MANT_MAX or dexp > 22 or dexp < -22:
                 if mant == 0:
@@ -200,6 +201,8 @@ def _parse_kernel(buf, pos, line, row, C, out, fb, max_rows, pow10):
                     v = v * pow10[dexp]
                 else:
                     v = v / pow10[-dexp]
+                if v > max_abs:
+                    return _BAD_RANGE, pos, line, row, nfb, start, pos, col + 1, row_line
                 out[row, col] = -v if neg else v
         col += 1
 
@@ -243,6 +246,29 @@ def _nonfinite(token: str) -> bool:
     return t in ("nan", "inf", "infinity")
 
 
+@dataclass(frozen=True)
+class ParsedBlock:
+    """What :func:`parse_block` found.
+
+    Attributes
+    ----------
+    values : np.ndarray [shape=(rows, C), dtype=float64]
+        The rows parsed before the first problem.
+    error : ParseError or None
+        The first problem, in file order.
+    end : int
+        Byte offset in ``buf`` where parsing stopped: ``len(buf)``, or after the line break
+        of row ``max_rows``, or at the problem.
+    last_row_line : int
+        1-based line of the last complete row (0 when there is none).
+    """
+
+    values: np.ndarray
+    error: ParseError | None
+    end: int
+    last_row_line: int
+
+
 def parse_motion_block(buf, n_channels: int, first_line: int, *, max_rows: int | None = None
                        ) -> tuple[np.ndarray, ParseError | None]:
     """Parse the data rows of a BVH MOTION block.
@@ -269,10 +295,23 @@ def parse_motion_block(buf, n_channels: int, first_line: int, *, max_rows: int |
         The first malformed token (``nan``/``inf`` included) or row with a wrong number
         of values, in file order, with its line number.
     """
+    res = parse_block(buf, n_channels, first_line, max_rows=max_rows)
+    return res.values, res.error
+
+
+def parse_block(buf, n_channels: int, first_line: int, *, max_rows: int | None = None,
+                max_abs: float = math.inf) -> ParsedBlock:
+    """:func:`parse_motion_block` with a magnitude limit, also telling where it stopped.
+
+    ``max_abs``: a value with ``abs(value) > max_abs`` is an error of kind ``"range"``.
+    """
     if isinstance(n_channels, bool) or not isinstance(n_channels, (int, np.integer)) or n_channels < 1:
         raise ValueError(f"n_channels must be a whole number >= 1, not {n_channels!r}")
+    if not max_abs > 0:
+        raise ValueError(f"max_abs must be positive, not {max_abs!r}")
     u8 = _as_u8(buf)
     C = int(n_channels)
+    max_abs = float(max_abs)
     if max_rows is None:  # an estimate (line breaks); grown below if lone-CR lines make it short
         cap = 1 + sum(int(np.count_nonzero(u8[i:i + (1 << 22)] == 10)) for i in range(0, len(u8), 1 << 22))
     else:
@@ -280,6 +319,7 @@ def parse_motion_block(buf, n_channels: int, first_line: int, *, max_rows: int |
     out = np.empty((cap, C), dtype=np.float64)
     fb = np.empty((max(_FALLBACK_CAP, 4 * C), 5), dtype=np.int64)
     pos, line, row = 0, int(first_line), 0
+    last_row_line = 0
     error = None
     while row < cap or max_rows is None:
         if row >= cap:  # more rows than line feeds (lone CR line ends): grow
@@ -287,19 +327,27 @@ def parse_motion_block(buf, n_channels: int, first_line: int, *, max_rows: int |
             grown = np.empty((cap, C), dtype=np.float64)
             grown[:row] = out[:row]
             out = grown
-        status, pos, line, row, nfb, e0, e1, ecol = _parse_kernel(u8, pos, line, row, C, out, fb, cap, _POW10)
+        status, pos, line, row2, nfb, e0, e1, ecol, rl = _parse_kernel(u8, pos, line, row, C, out, fb, cap,
+                                                                       _POW10, max_abs)
+        if row2 > row:  # rows completed in this call: rl is the line of the last one
+            last_row_line = int(rl)
+        row = row2
         bad = None
         for s, e, r, c, ln in fb[:nfb]:  # tokens outside the exact fast path
             v = float(u8[s:e].tobytes())
             out[r, c] = v
-            if bad is None and not math.isfinite(v):  # e.g. 1e999: well formed but infinite
-                bad = ParseError(int(ln), int(r), int(c) + 1, "nonfinite", u8[s:e].tobytes().decode("latin-1"), C)
+            if bad is None and not (math.isfinite(v) and abs(v) <= max_abs):  # 1e999: well formed, infinite
+                kind = "nonfinite" if not math.isfinite(v) else "range"
+                bad = ParseError(int(ln), int(r), int(c) + 1, kind, u8[s:e].tobytes().decode("latin-1"), C)
+                bad_pos = int(s)
         if bad is not None:
-            error, row = bad, bad.row
+            error, row, pos = bad, bad.row, bad_pos
             break
-        if status == _BAD_TOKEN:
+        if status == _BAD_TOKEN or status == _BAD_RANGE:
             tok = u8[e0:e1].tobytes().decode("latin-1")
-            error = ParseError(line, row, int(ecol), "nonfinite" if _nonfinite(tok) else "token", tok, C)
+            kind = "range" if status == _BAD_RANGE else ("nonfinite" if _nonfinite(tok) else "token")
+            error = ParseError(line, row, int(ecol), kind, tok, C)
+            pos = int(e0)
             break
         if status == _BAD_COUNT:
             error = ParseError(line, row, int(ecol), "count", "", C)
@@ -310,143 +358,7 @@ def parse_motion_block(buf, n_channels: int, first_line: int, *, max_rows: int |
     values = out[:row]
     if row < 0.9 * out.shape[0]:
         values = values.copy()  # do not keep a much larger buffer alive
-    return values, error
+    return ParsedBlock(values, error, int(pos), last_row_line)
 
 
-# ---------------------------------------------------------------------------------------
-# formatting
-# ---------------------------------------------------------------------------------------
-_PAIRS = np.frombuffer("".join(f"{i:02d}" for i in range(100)).encode(), dtype=np.uint8).copy()
-_P10U = np.array([10 ** k for k in range(20)], dtype=np.uint64)
-
-
-@njit(cache=True)
-def _format_kernel(values, decimals, scale, trim, out, pairs, p10):
-    """Write rows of ``values`` into ``out``; returns bytes used, or -(flat index + 1) of a value to do in Python.
-
-    Each value is the integer ``rint(v * scale)`` written right to left two digits at a time
-    (``pairs``: "00".."99"), with the point ``decimals`` digits from the right.
-    """
-    T, C = values.shape
-    p = 0
-    ten = np.uint64(10)
-    hundred = np.uint64(100)
-    for t in range(T):
-        for c in range(C):
-            v = values[t, c]
-            x = v * scale
-            if not (abs(x) < 9.0e15):  # beyond the exact integer range (or nan/inf)
-                return -(t * C + c + 1)
-            if math.copysign(1.0, v) < 0.0:  # sign bit, as '%f' writes it (-0.0 -> "-0")
-                out[p] = 45
-                p += 1
-            ik = np.uint64(abs(np.rint(x)))
-            nd = decimals + 1  # digits printed: at least one before the point
-            while nd < 19 and ik >= p10[nd]:
-                nd += 1
-            frac = decimals
-            if trim:
-                while frac > 0:
-                    q = ik // ten
-                    if ik - q * ten != 0:
-                        break
-                    ik = q
-                    frac -= 1
-                    nd -= 1
-            e = p + nd + (1 if frac > 0 else 0)
-            w = e
-            k = 0
-            while k + 2 <= frac:
-                q = ik // hundred
-                r = ik - q * hundred
-                w -= 2
-                out[w] = pairs[2 * r]
-                out[w + 1] = pairs[2 * r + 1]
-                ik = q
-                k += 2
-            if k < frac:
-                q = ik // ten
-                w -= 1
-                out[w] = np.uint8(48 + (ik - q * ten))
-                ik = q
-            if frac > 0:
-                w -= 1
-                out[w] = 46
-            while w - p >= 2:
-                q = ik // hundred
-                r = ik - q * hundred
-                w -= 2
-                out[w] = pairs[2 * r]
-                out[w + 1] = pairs[2 * r + 1]
-                ik = q
-            if w > p:
-                out[p] = np.uint8(48 + ik % ten)
-            out[e] = 32 if c < C - 1 else 10
-            p = e + 1
-    return p
-
-
-def format_motion_block(values: np.ndarray, decimals: int = 6, *, trim: bool = True,
-                        chunk_rows: int = 4096):
-    """The rows of ``values`` as BVH motion text, one frame per line.
-
-    Parameters
-    ----------
-    values : np.ndarray [shape=(T, C)]
-        Finite channel values (degrees, file units).
-    decimals : int
-        Digits after the point, 0..15.
-    trim : bool
-        Drop trailing zeros after the point (and the point itself when nothing follows):
-        ``12.5`` rather than ``12.500000``; the value read back is the same.
-    chunk_rows : int
-        Rows formatted per chunk (memory stays about ``chunk_rows * C * 24`` bytes).
-
-    Yields
-    ------
-    bytes
-        Consecutive pieces of the text (ASCII, ``\\n`` line ends); join or write them.
-        Without trimming each value reads ``'%.{decimals}f' % v`` (Python's text) for
-        ``|v| * 10**decimals < 9e15``; values beyond go through Python's formatting.
-
-    Raises
-    ------
-    ValueError
-        A non-finite value (BVH cannot store it), or ``decimals`` out of range.
-    """
-    values = np.ascontiguousarray(values, dtype=np.float64)
-    if values.ndim != 2:
-        raise ValueError(f"values must be 2-d (frames, channels), got shape {values.shape}")
-    if isinstance(decimals, bool) or not isinstance(decimals, (int, np.integer)) or not 0 <= decimals <= 15:
-        raise ValueError(f"decimals must be a whole number in 0..15, not {decimals!r}")
-    if not np.isfinite(values).all():
-        t, c = np.argwhere(~np.isfinite(values))[0]
-        raise ValueError(f"value at frame {t}, column {c} is not finite ({values[t, c]})")
-    T, C = values.shape
-    if C == 0:
-        if T:
-            yield b"\n" * T
-        return
-    scale = 10.0 ** decimals
-    buf = np.empty(min(chunk_rows, max(T, 1)) * C * (22 + decimals), dtype=np.uint8)
-    for t0 in range(0, T, chunk_rows):
-        block = values[t0:t0 + chunk_rows]
-        while len(block):
-            p = _format_kernel(block, decimals, scale, trim, buf, _PAIRS, _P10U)
-            if p >= 0:
-                yield buf[:p].tobytes()
-                break
-            idx = -p - 1  # a value too large for the integer path: this row in Python
-            r = idx // C
-            if r:
-                p2 = _format_kernel(block[:r], decimals, scale, trim, buf, _PAIRS, _P10U)
-                yield buf[:p2].tobytes()
-            yield (" ".join(_py_format(v, decimals, trim) for v in block[r]) + "\n").encode("ascii")
-            block = block[r + 1:]
-
-
-def _py_format(v: float, decimals: int, trim: bool) -> str:
-    s = f"{v:.{decimals}f}"
-    if trim and "." in s:
-        s = s.rstrip("0").rstrip(".")
-    return s
+from .fastformat import format_motion_block, format_motion_block_g  # noqa: E402  (re-exported)

@@ -4,8 +4,9 @@ Optical and depth-sensor hand trackers lose fingers (occlusion, a hand leaving t
 their files then carry broken frames that a splice would otherwise copy onto the body.
 :func:`repair_motion` finds, per joint:
 
-* ``zero_row``: frames whose every channel is exactly 0 while other frames are not (the Leap
-  exports start with one; a tracker that lost the hand writes them);
+* ``zero_row``: frames whose every channel is 0 (within :data:`ZERO_ROW_ATOL`) while other
+  frames are not (the Leap exports start with one; a tracker that lost the hand writes them;
+  Blender's BVH import and export turn the Leap's all-zero first row into values of 1.5e-6);
 * ``nan``: frames where one of the joint's channels is NaN or infinite;
 * ``frozen``: a stretch where the joint's channels repeat exactly for at least
   :data:`FROZEN_MIN_S` seconds (and :data:`FROZEN_MIN_FRAMES` frames) while the other joints
@@ -46,7 +47,7 @@ from ..model.rotations import euler_from_quat, quat_angle, quat_conj, quat_from_
 
 __all__ = ["Repair", "repair_motion", "detect_problems", "MAX_FINGER_SPEED_DEG_S", "FROZEN_MIN_S",
            "FROZEN_MIN_FRAMES", "FROZEN_EXIT_RATIO", "SPIKE_MAX_FRAMES", "EXTRAPOLATE_MAX_S", "repairs_summary",
-           "hand_joints", "VELOCITY_BASELINE_S"]
+           "hand_joints", "VELOCITY_BASELINE_S", "ZERO_ROW_ATOL"]
 
 MAX_FINGER_SPEED_DEG_S = 3000.0  # degrees per second (see the module docstring)
 FROZEN_MIN_S = 0.1  # seconds
@@ -56,6 +57,9 @@ FROZEN_MIN_MOVING = 0.1  # share of frame steps in which a joint must change to 
 SPIKE_MAX_FRAMES = 3  # frames
 EXTRAPOLATE_MAX_S = 0.1  # seconds of constant-velocity extrapolation at an end, then held
 VELOCITY_BASELINE_S = 0.05  # seconds between the two good frames the end velocity is measured over
+#: a row is a zero row when every channel is within this of 0 (degrees and file units): far above
+#: the 1.5e-6 a round trip through Blender leaves of an all-zero row, far below any captured pose
+ZERO_ROW_ATOL = 1e-4
 
 KINDS = ("zero_row", "nan", "frozen", "jump")
 
@@ -132,7 +136,7 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
     if T < 2:
         return out
     finite = np.isfinite(ch)
-    zero = np.all(ch == 0.0, axis=1)
+    zero = np.all(np.abs(ch) <= ZERO_ROW_ATOL, axis=1)
     if zero.any() and not zero.all():
         out[-1] = {"zero_row": zero}
     # NaN / inf

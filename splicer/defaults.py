@@ -19,9 +19,9 @@ OPEN_BAND1 = "3s"
 BAND2_PER_BAND1 = 1.0 / 3.0
 #: Standard deviation of the Gaussian that smooths the markers before differentiating, seconds.
 SMOOTH_S = 0.025
-#: D1's soft sign: x / sqrt(x^2 + eps^2) with eps this share of the motion's RMS velocity
-#: (acceleration); components well below eps count as about zero.
-DEAD_ZONE = 0.1
+#: D1's sign dead zone: components below this share of the motion's RMS velocity
+#: (acceleration) count as zero.
+DEAD_ZONE = 0.01
 #: Pass 2's departure penalty, radians per band width of departure from the pass-1 warp.
 PASS2_WEIGHT = 2.0
 #: Weight of D1 (normalised by 24) added to D2 in pass 2; 0 is the paper's pass 2.

@@ -17,8 +17,8 @@ def d1_reference(body: PhaseFeatures, hands: PhaseFeatures, i: int, j: int, thet
     R = np.eye(3)
     R[a, a], R[a, b], R[b, a], R[b, b] = np.cos(th), -np.sin(th), np.sin(th), np.cos(th)
 
-    def sgn(x, eps):  # the soft sign (hard when eps is 0)
-        return x / np.sqrt(x * x + eps * eps) if eps > 0 else np.sign(x)
+    def sgn(x, eps):
+        return np.where(x > eps, 1.0, np.where(x < -eps, -1.0, 0.0))
 
     vh = hands.vel[j] @ R.T
     ah = hands.acc[j] @ R.T

@@ -8,9 +8,8 @@ D1 (ALGORITHM.md section 4, paper eq. 6-7)::
 
     D1(i, j) = sum_r || sgn(v_r,i) - sgn(R(theta_ij) v'_r,j) ||^2 + || sgn(a_r,i) - sgn(R(theta_ij) a'_r,j) ||^2
 
-where ``sgn`` is the soft sign ``x / sqrt(x^2 + eps^2)`` (about 0 for ``|x| << eps``, about
-+-1 beyond a few ``eps``; continuous, so tiny input noise moves the cost, the path and the
-time map only a little) and ``eps`` is a fraction of each motion's own RMS speed / acceleration, and ``theta_ij`` the rotation about the up axis that best
+with a dead zone (``|x| < eps -> 0``) whose ``eps`` is a fraction of each motion's own
+RMS speed / acceleration, and ``theta_ij`` the rotation about the up axis that best
 superimposes the 5-frame marker windows around ``i`` and ``j`` (Kovar, Gleicher & Pighin
 2002), or the difference of root headings.
 
@@ -52,8 +51,7 @@ class PhaseFeatures:
     vel, acc : np.ndarray [shape=(T, 4, 3)]
         Shoulder-relative marker velocity (units/s) and acceleration (units/s^2), smoothed.
     eps_vel, eps_acc : float
-        Soft dead zones: the sign of a component ``x`` is ``x / sqrt(x^2 + eps^2)``, so
-        components well below these count as about zero (0 disables: the hard sign).
+        Dead zones: components smaller than these count as zero.
     window : np.ndarray [shape=(T, 2, 20)]
         Horizontal marker coordinates (axes ``a, b`` of :func:`horizontal_axes`) of the
         5-frame window around each frame, mean removed, for theta.
@@ -137,8 +135,8 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         markers before differentiating: capture noise flips signs otherwise.  Default: the
         splice's, :data:`splicer.defaults.SMOOTH_S`.
     dead_zone : float
-        Components well below ``dead_zone`` times the motion's RMS velocity (acceleration)
-        count as about zero (a soft sign, see :class:`PhaseFeatures`), so a hold reads as a hold and a confined hand capture is judged on
+        Components below ``dead_zone`` times the motion's RMS velocity (acceleration)
+        count as zero, so a hold reads as a hold and a confined hand capture is judged on
         the same relative scale as a free body capture.  Default: the splice's,
         :data:`splicer.defaults.DEAD_ZONE`.
     """
@@ -155,14 +153,9 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
 
 @njit(cache=True, inline="always")
 def _sgn(x, eps):
-    # the soft sign x / sqrt(x^2 + eps^2): continuous, so that a tiny change of the input
-    # is a tiny change of the cost (a hard sign with a dead zone jumps by 1 at |x| = eps, and
-    # its integer costs tie whole families of paths, which then flip on 1e-5 degrees of noise)
-    if eps > 0.0:
-        return x / np.sqrt(x * x + eps * eps)
-    if x > 0.0:
+    if x > eps:
         return 1.0
-    if x < 0.0:
+    if x < -eps:
         return -1.0
     return 0.0
 

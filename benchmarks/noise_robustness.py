@@ -14,6 +14,7 @@ import numpy as np
 
 from splicer.io.bvh import read_bvh
 from splicer.model.rotations import quat_angle_deg
+from splicer.options import SpliceOptions
 from splicer.pipeline import splice
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,14 +33,17 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sigmas", type=float, nargs="+", default=[1e-6, 1e-5, 1e-4, 1e-3, 1e-2])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                    help="a SpliceOptions field (number), e.g. dead_zone=0.1")
     a = ap.parse_args(argv)
+    opts = SpliceOptions(**{k: float(v) for k, v in (o.split("=", 1) for o in a.option)})
     body, hands = read_bvh(BODY), read_bvh(HANDS)
-    ref = splice(body, hands, config=SYNC)
+    ref = splice(body, hands, config=SYNC, options=opts)
     print("sigma_deg  seed  max|dtm| L  max|dtm| R  max|dpath1|  max dangle_deg")
     for s in a.sigmas:
         for seed in a.seeds:
             rng = np.random.default_rng(seed)
-            r = splice(noisy(body, s, rng), noisy(hands, s, rng), config=SYNC)
+            r = splice(noisy(body, s, rng), noisy(hands, s, rng), config=SYNC, options=opts)
             dtm = {k: float(np.nanmax(np.abs(r.sides[k].hands_frame - ref.sides[k].hands_frame))) for k in r.sides}
             dp = 0.0
             for k in r.sides:

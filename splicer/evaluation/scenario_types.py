@@ -141,21 +141,26 @@ def invert_time(h: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Fractional index into the non-decreasing ``h`` at which ``h`` takes the values ``t``.
 
     Linear between samples; where ``h`` is flat at exactly ``t`` the last index of the flat;
-    NaN outside ``[h[0], h[-1]]``.
+    NaN outside ``[h[0], h[-1]]``, widened by a rounding tolerance of 1e-9 of the range's
+    magnitude (numpy 1.26 sums a re-timing to 359.99999999999994 where numpy 2 gives 360).
 
     Examples
     --------
     >>> invert_time(np.array([0.0, 1.0, 1.0, 2.0]), np.array([0.5, 1.5, 3.0]))
     array([0.5, 2.5, nan])
+    >>> invert_time(np.array([0.0, 1.0, 2.0 - 4e-16]), np.array([2.0, 2.1])).tolist()
+    [2.0, nan]
     """
     h = np.asarray(h, dtype=np.float64)
     t = np.asarray(t, dtype=np.float64)
     out = np.full(t.shape, np.nan)
-    ok = (t >= h[0]) & (t <= h[-1])
-    k = np.clip(np.searchsorted(h, t[ok], side="right") - 1, 0, len(h) - 1)
+    tol = 1e-9 * max(1.0, abs(h[0]), abs(h[-1]))
+    ok = (t >= h[0] - tol) & (t <= h[-1] + tol)
+    tk = np.clip(t[ok], h[0], h[-1])
+    k = np.clip(np.searchsorted(h, tk, side="right") - 1, 0, len(h) - 1)
     k1 = np.minimum(k + 1, len(h) - 1)
     step = h[k1] - h[k]
-    frac = np.where(step > 0, (t[ok] - h[k]) / np.where(step > 0, step, 1.0), 0.0)
+    frac = np.where(step > 0, (tk - h[k]) / np.where(step > 0, step, 1.0), 0.0)
     out[ok] = k + frac
     return out
 

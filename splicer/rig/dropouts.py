@@ -4,8 +4,9 @@ Optical and depth-sensor hand trackers lose fingers (occlusion, a hand leaving t
 their files then carry broken frames that a splice would otherwise copy onto the body.
 :func:`detect_problems` finds, per joint:
 
-* ``zero_row``: frames whose every channel is exactly 0 while other frames are not (the Leap
-  exports start with one; a tracker that lost the hand writes them);
+* ``zero_row``: frames whose every channel is 0 (within :data:`ZERO_ROW_ATOL`) while other
+  frames are not (the Leap exports start with one; a tracker that lost the hand writes them;
+  Blender's BVH import and export turn the Leap's all-zero first row into values of 1.5e-6);
 * ``nan``: frames where one of the joint's channels is NaN or infinite;
 * ``frozen``: a stretch where the joint's channels repeat exactly for at least
   :data:`FROZEN_MIN_S` seconds (and :data:`FROZEN_MIN_FRAMES` frames) while the other joints
@@ -34,7 +35,7 @@ from ..model.motion import Motion
 from ..model.rotations import quat_angle, quat_from_euler, quat_hemisphere
 
 __all__ = ["detect_problems", "hand_joints", "MAX_FINGER_SPEED_DEG_S", "FROZEN_MIN_S", "FROZEN_MIN_FRAMES",
-           "FROZEN_EXIT_RATIO", "FROZEN_MIN_MOVING", "SPIKE_MAX_FRAMES", "KINDS"]
+           "FROZEN_EXIT_RATIO", "FROZEN_MIN_MOVING", "SPIKE_MAX_FRAMES", "KINDS", "ZERO_ROW_ATOL"]
 
 MAX_FINGER_SPEED_DEG_S = 3000.0  # degrees per second (see the module docstring)
 FROZEN_MIN_S = 0.1  # seconds
@@ -42,6 +43,9 @@ FROZEN_MIN_FRAMES = 4  # frames (identical samples, the first one included)
 FROZEN_EXIT_RATIO = 3.0  # step out of a frozen stretch, in multiples of the joint's usual step
 FROZEN_MIN_MOVING = 0.1  # share of frame steps in which a joint must change to be called frozen anywhere
 SPIKE_MAX_FRAMES = 3  # frames
+#: a row is a zero row when every channel is within this of 0 (degrees and file units): far above
+#: the 1.5e-6 a round trip through Blender leaves of an all-zero row, far below any captured pose
+ZERO_ROW_ATOL = 1e-4
 
 KINDS = ("zero_row", "nan", "frozen", "jump")
 
@@ -92,7 +96,7 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
     if T < 2:
         return out
     finite = np.isfinite(ch)
-    zero = np.all(ch == 0.0, axis=1)
+    zero = np.all(np.abs(ch) <= ZERO_ROW_ATOL, axis=1)
     if zero.any() and not zero.all():
         out[-1] = {"zero_row": zero}
     # NaN / inf

@@ -22,12 +22,12 @@ from ..model.motion import Motion
 from ..model.rotations import euler_from_quat, quat_conj, quat_mul, quat_slerp
 # the detection, re-exported: these names were defined here before the split
 from .dropouts import (FROZEN_EXIT_RATIO, FROZEN_MIN_FRAMES, FROZEN_MIN_MOVING, FROZEN_MIN_S, KINDS,  # noqa: F401
-                       MAX_FINGER_SPEED_DEG_S, SPIKE_MAX_FRAMES, _joint_columns, _quats, _runs, detect_problems,
-                       hand_joints)
+                       MAX_FINGER_SPEED_DEG_S, SPIKE_MAX_FRAMES, ZERO_ROW_ATOL, _joint_columns, _quats, _runs,
+                       detect_problems, hand_joints)
 
 __all__ = ["Repair", "repair_motion", "detect_problems", "MAX_FINGER_SPEED_DEG_S", "FROZEN_MIN_S",
            "FROZEN_MIN_FRAMES", "FROZEN_EXIT_RATIO", "SPIKE_MAX_FRAMES", "EXTRAPOLATE_MAX_S", "repairs_summary",
-           "hand_joints", "VELOCITY_BASELINE_S"]
+           "hand_joints", "VELOCITY_BASELINE_S", "ZERO_ROW_ATOL"]
 
 EXTRAPOLATE_MAX_S = 0.1  # seconds of constant-velocity extrapolation at an end, then held
 VELOCITY_BASELINE_S = 0.05  # seconds between the two good frames the end velocity is measured over

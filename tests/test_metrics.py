@@ -6,8 +6,8 @@ import pytest
 from splicer.align.dtw import make_band
 from splicer.rig.markers import Markers
 from references import d1_reference, d2_reference
-from splicer.align.costs import (d1_cost, d2_cost, kgp_theta, matched_smoothing, palm_features, phase_features,
-                                 sign_change_rate, swing_rate, window_points)
+from splicer.align.costs import d1_cost, d2_cost, kgp_theta, palm_features, phase_features, window_points
+from splicer.align.noise import matched_smoothing, sign_change_rate, swing_rate
 from splicer.model.rotations import quat_rotate, yaw_quat_deg
 
 

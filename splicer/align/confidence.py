@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .passes import path_median
+from .paths import path_median
 from .dtw import CHUNK_CELLS, Band, end_costs
 
 __all__ = ["Confidence", "row_confidence", "pass_confidence", "through_costs", "CONFIDENCE_THRESHOLD"]

@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit, prange
 from ..filters import gaussian_filter1d
 
-from ..defaults import DEAD_ZONE, NOISE_RATIO, SMOOTH_S, SMOOTH_STEPS
+from ..defaults import DEAD_ZONE, SMOOTH_S
 from ..rig.markers import Markers
 
 __all__ = [
@@ -36,9 +36,6 @@ __all__ = [
     "palm_features",
     "d2_cost",
     "window_points",
-    "sign_change_rate",
-    "swing_rate",
-    "matched_smoothing",
     "kgp_theta",
 ]
 
@@ -152,103 +149,6 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         np.ascontiguousarray(vel), np.ascontiguousarray(acc), eps_v, eps_a, win,
         np.ascontiguousarray(markers.heading, dtype=np.float64), markers.up,
     )
-
-
-def sign_change_rate(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE) -> float:
-    """How often D1's velocity signs change: changes per second, averaged over every marker
-    coordinate (shoulder-relative, smoothed and dead-zoned as :func:`phase_features` does; a
-    step into or out of the dead zone counts as a change).
-
-    A gesturing arm reverses a coordinate's direction two or three times a second; capture
-    noise that the smoothing leaves in adds changes that carry no phase.
-
-    >>> import numpy as np
-    >>> from splicer.rig.markers import Markers
-    >>> t = np.arange(300) / 30.0                       # 10 s at 30 fps
-    >>> pts = np.zeros((300, 4, 3))
-    >>> pts[:, 1:, 0] = np.sin(np.pi * t + 0.3)[:, None]  # a 0.5 Hz swing: 1 reversal/s
-    >>> mk = Markers(pts, np.zeros((300, 3)), np.zeros(300), 1, 30.0, "left")
-    >>> round(sign_change_rate(mk), 2)  # only 3 of the 12 coordinates move
-    0.25
-    """
-    rel = markers.relative()
-    if rel.shape[0] < 2 or rel.size == 0:
-        return 0.0
-    vel, _ = _smooth_derivatives(rel, markers.fps, smooth_s)
-    eps = dead_zone * float(np.sqrt(np.mean(vel**2)))
-    sg = np.where(vel > eps, 1, np.where(vel < -eps, -1, 0))
-    changes = np.count_nonzero(sg[1:] != sg[:-1]) / (sg.shape[1] * sg.shape[2])
-    return float(changes / (rel.shape[0] / markers.fps))
-
-
-def swing_rate(markers: Markers, *, hysteresis: float = 0.25) -> float:
-    """How often the markers swing across their mean position: crossings per second, averaged
-    over every shoulder-relative marker coordinate.  A crossing counts when a coordinate goes
-    from above ``mean + hysteresis * std`` to below ``mean - hysteresis * std`` or back, so
-    capture noise near the mean adds none; a take ``k`` times slower swings ``k`` times less
-    often.
-
-    >>> import numpy as np
-    >>> from splicer.rig.markers import Markers
-    >>> t = np.arange(600) / 30.0
-    >>> pts = np.zeros((600, 4, 3))
-    >>> pts[:, :, 0] = np.sin(np.pi * t + 0.3)[:, None]  # 0.5 Hz: one crossing a second
-    >>> round(swing_rate(Markers(pts, np.zeros((600, 3)), np.zeros(600), 1, 30.0, "left")), 2)  # x of 4 markers: 4 of 12
-    0.33
-    """
-    rel = markers.relative()
-    if rel.shape[0] < 2 or rel.size == 0:
-        return 0.0
-    x = rel.reshape(rel.shape[0], -1)
-    x = x - x.mean(axis=0)
-    h = hysteresis * x.std(axis=0)
-    crossings = 0
-    for c in range(x.shape[1]):
-        if h[c] <= 0:
-            continue
-        side = np.where(x[:, c] > h[c], 1, np.where(x[:, c] < -h[c], -1, 0))
-        side = side[side != 0]
-        crossings += int(np.count_nonzero(side[1:] != side[:-1]))
-    return float(crossings / x.shape[1] / (rel.shape[0] / markers.fps))
-
-
-def matched_smoothing(body: Markers, hands: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE,
-                      ratio: float | None = NOISE_RATIO, steps=SMOOTH_STEPS) -> tuple[float, float]:
-    """The marker smoothing D1 uses for a pair, and how much noisier one take looks.
-
-    A take ``k`` times slower than the other shows the same reversals ``k`` times less often,
-    and smoothing it over ``k * w`` seconds shows what the other shows over ``w``.  ``k`` is
-    estimated from both takes' :func:`swing_rate`, which noise hardly changes (clipped to
-    1/4..4).  For each width ``w = smooth_s * step`` the body's :func:`sign_change_rate` at
-    ``w`` is compared with ``k`` times the hands' at ``k * w``: noise in one take (1-2 degrees
-    of arm noise in a second performance, a jittery solve) adds changes at the fine widths.
-    With ``ratio`` set, the first width where the two agree within that factor is used for
-    both takes; with ``ratio=None`` (the default) ``smooth_s`` is kept.
-
-    Returns
-    -------
-    (smooth_s, excess) : tuple of float
-        The width chosen (seconds), and the tempo-compensated ratio of the two rates at
-        ``smooth_s`` (>= 1; 1.0 when a take is still).
-    """
-    rb = sign_change_rate(body, smooth_s=smooth_s, dead_zone=dead_zone)
-    sb, sh = swing_rate(body), swing_rate(hands)
-    if smooth_s <= 0 or min(rb, sb, sh) <= 0:
-        return smooth_s, 1.0  # a still take: nothing to compare
-    k = float(np.clip(sb / sh, 0.25, 4.0))  # the hands take is about k times slower
-
-    def excess(w: float, b: float) -> float:
-        h = k * sign_change_rate(hands, smooth_s=k * w, dead_zone=dead_zone)
-        return float(max(b / h, h / b)) if h > 0 else np.inf
-
-    first = excess(smooth_s, rb)
-    if ratio is None or first <= ratio:
-        return smooth_s, first
-    for step in steps[1:]:
-        w = smooth_s * step
-        if excess(w, sign_change_rate(body, smooth_s=w, dead_zone=dead_zone)) <= ratio:
-            return float(w), first
-    return float(smooth_s * steps[-1]), first
 
 
 @njit(cache=True, inline="always")

@@ -1,0 +1,220 @@
+"""Stage 4, align: pass 1 (open or fixed ends), pass 2, confidence, for one side."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import defaults as D
+from ..errors import BandError, ConstraintError, SplicerError
+from ..align.frames import Pin
+from ..options import SpliceOptions
+from .markers import SideMarkers
+from .log import Log
+
+__all__ = ['Alignment', 'align_side']
+
+
+# ---------------------------------------------------------------- stage 4: align
+
+@dataclass(frozen=True, eq=False)
+class Alignment:
+    """Both passes of one side.
+
+    Attributes
+    ----------
+    per_frame : np.ndarray [shape=(n,)]
+        Hands frame (common rate, fractional) matched to each body frame.
+    path : np.ndarray [shape=(K, 2)]
+        The final correspondence (body frame, common hands frame), for the median merge.
+    pass1, pass2 : PassResult or None
+    constraints : tuple of Constraint
+        The pins as DTW constraints (body frame, common hands frame).
+    """
+
+    per_frame: np.ndarray
+    path: np.ndarray
+    pass1: object
+    pass2: object
+    constraints: tuple
+    covered: tuple | None = None  # (first, last) body frames the hands cover; None: all
+    confidence: object = None  # per-frame confidence and estimated error, when computed
+    ends: str = "fixed"  # the end conditions used: "open" or "fixed"
+
+    def __repr__(self) -> str:
+        return f"Alignment(body_frames={len(self.per_frame)}, passes={[p.name for p in (self.pass1, self.pass2) if p]})"
+
+
+def _pin_error(e: SplicerError, pins: tuple[Pin, ...], side: str) -> SplicerError:
+    """A band/constraint error in terms of the user's pins (file, line, numbers)."""
+    seg = getattr(e, "segment", None)
+    if isinstance(e, BandError) and seg is not None and pins:
+        before = "the start of both takes" if seg == 0 else pins[seg - 1].describe()
+        after = "the end of both takes" if seg >= len(pins) else pins[seg].describe()
+        w = getattr(e, "min_width", None)
+        wtxt = f"; a band of at least {w:.0f} body frames would (--band {int(np.ceil(w))})" if w else ""
+        return type(e)(f"{side} side: the band cannot connect {before} to {after}{wtxt}")
+    pair = getattr(e, "pair", None)
+    if pair is not None and pins:
+        a, b = pins[pair[0]], pins[pair[1]]
+        return type(e)(f"{side} side: {b.describe()} cannot follow {a.describe()}: adjacent body frames cannot "
+                       "match hands frames further apart than their tolerances allow")
+    return type(e)(f"{side} side: {e}")
+
+
+def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
+               offset_s: float | None = None) -> Alignment:
+    """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed, with a confidence.
+
+    Parameters
+    ----------
+    ends : {"auto", "open", "fixed"}
+        ``"open"``: the overlap of the two takes is found (the body's span anywhere inside
+        the hands take, or the hands covering part of the body); ``"fixed"``: first frames
+        match and last frames match (the paper).  ``"auto"`` (the default): open, except that
+        takes found to start and end together are aligned end to end (fixed), and an overlap
+        far shorter than both takes allow is not trusted: the takes are then aligned end to
+        end, with a warning (:func:`_choose_ends`).
+    offset_s : float, optional
+        Open ends: body frame 0 shows hands time ``offset_s`` (a starting guess, e.g. timecode).
+
+    Raises
+    ------
+    SplicerError
+        A band that cannot reach the pins, named by their file and line.
+    """
+    from ..align.passes import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
+    from ..align.band import band_frames
+    from ..align.confidence import pass_confidence
+    from ..align.noise import matched_smoothing
+
+    log = log or Log()
+    s, bmk, hmk = markers.side, markers.body, markers.hands
+    n, m = bmk.n_frames, hmk.n_frames
+    fps = markers.spaces.body_fps
+
+    smooth_s, noisier = matched_smoothing(bmk, hmk, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+                                          ratio=opts.noise_ratio)
+    if smooth_s != opts.smooth_s:
+        log.note(f"{s} side: one take's arm is noisier (its motion changes direction {noisier:.1f}x as often, "
+                 f"tempo allowed for): markers smoothed over {smooth_s:g} s instead of {opts.smooth_s:g} s "
+                 "for the phase metric")
+    elif noisier > D.NOISE_WARN:
+        log.note(f"{s} side: one take's arm looks noisier (its motion changes direction {noisier:.1f}x as often, "
+                 "tempo allowed for; a second performance or a jittery solve?): if the alignment is off, "
+                 "try --noise-ratio 1.2")
+
+    def run_pass1(mode: str):
+        open_ends = mode == "open"
+        band1 = opts.band1 if opts.band1 is not None else (D.OPEN_BAND1 if open_ends else D.BAND1)
+        w1 = band_frames(band1, n=n, fps=fps)
+        cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
+        guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
+        p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
+                  theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
+                  uncovered_quantile=opts.uncovered_quantile,
+                  coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
+                  coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
+                  progress=lambda f: log.progress(f"{s}: pass 1", f))
+        return p, w1, cons
+
+    p1 = p2 = None
+    covered = None
+    used = "fixed" if ends == "fixed" else "open"
+    try:
+        if opts.passes in ("pass1", "both"):
+            log.progress(f"{s}: pass 1", 0.0)
+            p1, w1, cons = run_pass1(used)
+            if ends == "auto":
+                why = _choose_ends(p1, n, m, fps, markers.pins)
+                if why is not None:
+                    used = "fixed"
+                    p1, w1, cons = run_pass1("fixed")
+                    if why.startswith("!"):
+                        log.note(f"{s} side: {why[1:]}")
+            for msg in p1.notes:
+                log.note(f"{s} side: {msg}")
+            path, per_frame = p1.path, path_median(p1.path, n)
+            if used == "open":
+                covered = _cover_pins(tuple(int(v) for v in p1.covered), markers.pins, n)
+                if covered != tuple(p1.covered):
+                    per_frame = hold_ends(per_frame)
+                    per_frame[:covered[0]] = np.nan
+                    per_frame[covered[1] + 1:] = np.nan
+            log.tick("pass1")
+        else:
+            w1 = band_frames(opts.band1 if opts.band1 is not None else D.BAND1, n=n, fps=fps)
+            cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
+        w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
+        if opts.passes == "both":
+            log.progress(f"{s}: pass 2", 0.0)
+            filled = hold_ends(per_frame)
+            p2 = pass2(bmk, warp_markers(hmk, filled), width=w2, constraints=remap_constraints(cons, filled),
+                       diagonal_weight=opts.pass2_weight, d1_weight=opts.pass2_d1_weight, smooth_s=smooth_s,
+                       dead_zone=opts.dead_zone, theta=opts.theta, covered=covered,
+                       progress=lambda f: log.progress(f"{s}: pass 2", f))
+            path = np.stack([p2.path[:, 0], np.interp(p2.path[:, 1], np.arange(n), filled)], axis=1)
+            per_frame = compose(filled, p2.path, n)
+            if covered is not None:
+                per_frame[:covered[0]] = np.nan
+                per_frame[covered[1] + 1:] = np.nan
+            log.tick("pass2")
+        elif opts.passes == "pass2":
+            p2 = pass2(bmk, hmk, width=w1, constraints=cons, diagonal_weight=0.0)
+            path, per_frame = p2.path, path_median(p2.path, n)
+            log.tick("pass2")
+    except (BandError, ConstraintError) as e:
+        raise _pin_error(e, markers.pins, s) from None
+    except SplicerError as e:
+        raise type(e)(f"{s} side: {e}") from None
+    conf = None
+    if p1 is not None:
+        conf = pass_confidence(p1, fps)
+        log.tick("confidence")
+    if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:
+        log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "
+                 f"({(covered[1] - covered[0] + 1) / fps:.1f} s of {n / fps:.1f} s): check that both takes show the "
+                 "same performance, or pin a matching pair")
+    return Alignment(per_frame, path, p1, p2, cons, covered, conf, used)
+
+
+#: ends="auto": an open-ended path starting and ending within this of the corners means the
+#: takes start and end together (seconds)
+_TOGETHER_S = 1.0
+#: ends="auto": an overlap shorter than this share of what both takes allow is not trusted
+_PLAUSIBLE_SHARE = 0.5
+
+
+def _choose_ends(p1, n: int, m: int, fps: float, pins) -> str | None:
+    """ends="auto": None to keep the open-ended pass 1, else why to align end to end instead
+    (a leading ``!`` marks a reason worth a warning).
+
+    * The open-ended path starts within :data:`_TOGETHER_S` of both first frames and ends within
+      it of both last frames: the takes start and end together, and fixed ends (the paper) are
+      measured more accurate there (README, *Accuracy*).
+    * The covered span is shorter than :data:`_PLAUSIBLE_SHARE` of the shorter take although no
+      pin says so and the takes last about as long (2/3 to 3/2): with noisy or repetitive
+      motion, an open end can lock onto a short stretch that happens to match; aligning end to
+      end is the safer answer, with a warning.  A hands take much shorter or longer than the
+      body keeps the open-ended answer (stretching it end to end would be worse).
+    """
+    tol = _TOGETHER_S * fps
+    (i0, j0), (i1, j1) = p1.path[0], p1.path[-1]
+    if i0 <= tol and j0 <= tol and (n - 1 - i1) <= tol and (m - 1 - j1) <= tol:
+        return "the takes start and end together"
+    a, b = p1.covered
+    comparable = 2.0 / 3.0 <= m / n <= 1.5  # end to end needs no more than the protocol's 0.5x-2x local speeds
+    if not pins and comparable and (b - a + 1) < _PLAUSIBLE_SHARE * min(n, m):
+        return (f"!the open-ended alignment found an overlap of only {(b - a + 1) / fps:.1f} s (body frames {a}-{b}) "
+                f"although both takes last {min(n, m) / fps:.1f} s or more; it is not trusted and the takes are aligned "
+                "end to end (--ends open keeps it, --ends fixed says so)")
+    return None
+
+
+def _cover_pins(covered: tuple, pins, n: int) -> tuple:
+    """The covered body range widened to every pinned body frame (a pin says that frame has hands material)."""
+    a, b = covered
+    for p in pins:
+        a, b = min(a, p.body), max(b, p.body)
+    return (max(a, 0), min(b, n - 1))

@@ -1,0 +1,92 @@
+"""Stage 3, markers: the virtual (or optical) markers of one side in both takes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+from ..align.frames import FrameSpaces, pins_from_config
+from .rig import Rig
+from .log import Log
+from .load import Inputs
+
+__all__ = ['SideMarkers', 'side_markers']
+
+
+# ---------------------------------------------------------------- stage 3: markers
+
+@dataclass(frozen=True, eq=False)
+class SideMarkers:
+    """One side's markers at the common (body) rate, and its pins.
+
+    Attributes
+    ----------
+    side : str
+    body, hands : Markers
+        Body markers (``n`` frames) and hands markers resampled to the body rate (``m`` frames).
+    spaces : FrameSpaces
+    pins : tuple of Pin
+        The user's pins for this side, in file frames.
+    """
+
+    side: str
+    body: object
+    hands: object
+    spaces: FrameSpaces
+    pins: tuple
+    real: dict = field(default_factory=dict)  # issue 14: "body"/"hands" -> optical marker report
+
+
+def _align_up(markers, up_to: int):
+    """Relabel axes cyclically (a proper rotation) so the vertical axis becomes ``up_to``."""
+    from ..rig.markers import Markers
+
+    if markers.up == up_to:
+        return markers
+    shift = (up_to - markers.up) % 3
+    perm = [(k - shift) % 3 for k in range(3)]  # new axis k takes old axis perm[k]
+    return Markers(markers.points[..., perm], markers.shoulder[..., perm], markers.heading,
+                   up_to, markers.fps, markers.side)
+
+
+def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) -> SideMarkers:
+    """Virtual markers of ``side`` in both takes, the hands brought to the body's rate and up axis."""
+    from ..align.passes import resample_markers
+    from ..rig.handonly import coincident_forearm, hand_only_view, is_hand_only
+    from ..rig.markers import arm_markers
+
+    log = log or Log()
+    log.progress(f"{side}: markers", 0.0)
+    bm, hm = inputs.body, inputs.hands
+    bmk = arm_markers(bm, rig.body.sides[side], rig.body.up)
+    harm = rig.hands.sides[side]
+    if is_hand_only(harm) and not is_hand_only(rig.body.sides[side]):
+        # a hand-only file has no shoulder nor elbow: the body's markers are made the same way
+        # (from its root, with the same virtual forearm)
+        bmk = hand_only_view(bm, rig.body.sides[side], bmk, forearm_joint=coincident_forearm(hm.skeleton, harm) is not None)
+    hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
+    # --- issue 14: real optical markers replace the virtual ones of the take that has them ---
+    real = {}
+    for take, traj, motion in (("body", inputs.body_markers, bm), ("hands", inputs.hands_markers, hm)):
+        if traj is None:
+            continue
+        from ..rig.marker_arm import arm_from_trajectories, on_frames
+
+        arm = arm_from_trajectories(traj, side, mapping=inputs.config.markers.get(take))
+        if not arm.roles.sided and len(rig.sides) > 1 and inputs.config.hands_side != side:
+            log.note(f"{traj.source}: the marker names tell no side; not used for the {side} side (name the side "
+                     f"with hands_side: or under markers: in the constraints file)")
+            continue
+        mk, notes = on_frames(arm.markers, motion.n_frames, motion.fps, what=f"{traj.source} ({side} side)")
+        for msg in arm.notes + notes:
+            log.note(msg)
+        real[take] = arm.report(traj)
+        if take == "body":
+            bmk = _align_up(mk, rig.body.up)
+        else:
+            hmk = _align_up(mk, rig.body.up)
+    # --- end issue 14 ---
+    pins = pins_from_config(inputs.config, side, inputs.spaces)
+    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real)
+    log.tick("markers")
+    return out

@@ -1,0 +1,137 @@
+"""Stage 7, report: each side's result and the typed report."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..model.motion import Motion
+from ..options import SpliceOptions
+from ..report import Report, SideReport
+from .markers import SideMarkers
+from .log import Log
+from .load import Inputs
+from .align import Alignment
+
+__all__ = ['SideResult', 'SpliceResult', 'LOW_CONFIDENCE_S', 'build_report']
+
+
+# ---------------------------------------------------------------- stage 7: report
+
+@dataclass(frozen=True, eq=False)
+class SideResult:
+    """Everything about one side: markers, alignment, time map.
+
+    Attributes
+    ----------
+    hands_frame : np.ndarray [shape=(n_body,)]
+        0-based, possibly fractional hands-file frame used for each body frame.
+    """
+
+    side: str
+    hands_frame: np.ndarray
+    markers: SideMarkers
+    alignment: Alignment
+    joints: dict = field(default_factory=dict)  # output joint -> hands joints driving it
+    extra: dict = field(default_factory=dict)  # JSON-ready report keys of later stages
+
+    @property
+    def pass1(self):
+        return self.alignment.pass1
+
+    @property
+    def pass2(self):
+        return self.alignment.pass2
+
+    @property
+    def pins(self) -> tuple:
+        return self.markers.pins
+
+    @property
+    def body_markers(self):
+        return self.markers.body
+
+    @property
+    def hands_markers(self):
+        return self.markers.hands
+
+    @property
+    def rate_ratio(self) -> float:
+        return self.markers.spaces.ratio
+
+    def __repr__(self) -> str:
+        return f"SideResult(side={self.side!r}, body_frames={len(self.hands_frame)}, pins={len(self.pins)})"
+
+
+@dataclass(frozen=True, eq=False)
+class SpliceResult:
+    """The output motion, the report, and each side's intermediate results."""
+
+    motion: Motion
+    report: Report
+    sides: dict = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        return (f"SpliceResult(motion={self.motion.n_frames} frames x {self.motion.skeleton.n_joints} joints, "
+                f"sides={sorted(self.sides)}, warnings={len(self.report.warnings)})")
+
+
+#: estimated alignment error above which a body frame is "low confidence", seconds: the
+#: finger-to-body desynchronisation viewers notice (Joerg, Hodgins & O'Sullivan 2010)
+LOW_CONFIDENCE_S = 0.1
+
+
+def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
+    """Report keys for covered/uncovered frames and confidence; warnings for the summary."""
+    from ..transfer.timemap import frame_ranges
+
+    out: dict = {}
+    aln = r.alignment
+    uncovered = frame_ranges(~np.isfinite(r.hands_frame))
+    cov = aln.covered if aln.covered is not None else (0, n - 1)
+    out["ends"] = aln.ends
+    out["covered"] = [int(cov[0]), int(cov[1])]
+    out["uncovered"] = uncovered
+    if uncovered:
+        fps = r.markers.spaces.body_fps
+        spans = ", ".join(f"{a}-{b} ({(b - a + 1) / fps:.1f} s)" for a, b in uncovered)
+        log.note(f"{r.side} side: no hands material covers body frames {spans}; they keep the body's own "
+                 "fingers, blended in and out")
+    conf = aln.confidence
+    if conf is not None:
+        from ..report import _round_list
+
+        out["confidence"] = _round_list(conf.confidence, 3)
+        out["est_error_s"] = _round_list(conf.est_error_s, 4)
+        low = frame_ranges(np.nan_to_num(conf.est_error_s, nan=0.0) > LOW_CONFIDENCE_S, min_gap=2)
+        out["low_confidence"] = low
+        if low:
+            fps = r.markers.spaces.body_fps
+            worst = sorted(low, key=lambda ab: -float(np.nanmax(conf.est_error_s[ab[0]:ab[1] + 1])))[:3]
+            where = ", ".join(f"{a}-{b} (~{np.nanmax(conf.est_error_s[a:b + 1]):.2f} s)" for a, b in worst)
+            share = sum(b - a + 1 for a, b in low) / n
+            log.note(f"{r.side} side: low confidence in {100 * share:.0f}% of body frames; worst {where}; a pin "
+                     f"(constraints file) near frame {(worst[0][0] + worst[0][1]) // 2} would help most")
+    return out
+
+
+def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, extra: dict | None = None) -> Report:
+    """The typed report of a finished splice (``extra``: further top-level keys)."""
+    from .. import __version__
+
+    def pass_info(p):
+        return None if p is None else {"band_frames": round(float(p.band.width), 3), "cost": float(p.cost)}
+
+    side_reports = {}
+    for s, r in sides.items():
+        pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in r.pins)
+        real = {"markers": r.markers.real} if r.markers.real else {}  # optical markers used (file, roles, gaps)
+        side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, r.joints,
+                                     {**r.extra, **real, **_coverage_report(r, inputs.body.n_frames, log)})
+    bm, hm = inputs.body, inputs.hands
+    timings = dict(log.timings, total=log.total())
+    return Report(__version__, {"path": bm.source, "frames": bm.n_frames, "fps": bm.fps},
+                  {"path": hm.source, "frames": hm.n_frames, "fps": hm.fps},
+                  {f: getattr(opts, f) for f in opts.__dataclass_fields__}, side_reports, timings,
+                  tuple(log.warnings), dict(extra or {}))

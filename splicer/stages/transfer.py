@@ -1,0 +1,164 @@
+"""Stages 5 and 6: the time map of one side, then its fingers onto the output."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SplicerError
+from ..model.motion import Motion
+from ..options import SpliceOptions
+from .rig import Rig
+from .markers import SideMarkers
+from .log import Log
+from .load import Inputs
+from .align import Alignment
+
+__all__ = ['Transfer', 'time_map', 'check_fingers', 'transfer_side']
+
+
+# ---------------------------------------------------------------- stage 5: time map
+
+def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) -> np.ndarray:
+    """Hands-file frame for each body frame: smoothed, monotone, every pin held within its T.
+
+    Body frames outside the covered range (open ends) have no hands material: NaN there.
+
+    Returns
+    -------
+    np.ndarray [shape=(n_body,), dtype=float64]
+        Non-decreasing over the covered frames, within ``[0, n_hands - 1]``; NaN elsewhere.
+    """
+    from ..transfer.timemap import pin_constraints, smooth_time_map
+
+    sp = markers.spaces
+    n = len(alignment.per_frame)
+    a, b = alignment.covered if alignment.covered is not None else (0, n - 1)
+    hands_frames = sp.common_to_hands(alignment.per_frame[a:b + 1])
+    pins = [(p.body - a, float(p.hands), float(p.tolerance)) for p in markers.pins if a <= p.body <= b]
+    last = sp.n_hands - 1
+    tm = np.full(n, np.nan)
+    if opts.merge == "timemap":  # both keep every pin within its window (pin_constraints)
+        tm[a:b + 1] = smooth_time_map(hands_frames, sigma_frames=opts.timemap_sigma_s * sp.body_fps, last=last,
+                                      pins=pins)
+    else:
+        tm[a:b + 1] = np.clip(pin_constraints(hands_frames, pins), 0, last)
+    return tm
+
+
+# ---------------------------------------------------------------- stage 6: transfer
+
+@dataclass(frozen=True, eq=False)
+class Transfer:
+    """The output after one side's fingers were carried over.
+
+    Attributes
+    ----------
+    motion : Motion
+        The body take with this side's finger joints driven by the hands (and grafted joints).
+    joints : dict
+        Output joint name -> hands joint names driving it.
+    """
+
+    motion: Motion
+    joints: dict
+    arm: object = None  # ArmRoles of the side on the output skeleton
+    extra: dict = field(default_factory=dict)  # JSON-ready report keys (e.g. the graft scale)
+
+
+def check_fingers(transfer: Transfer, side: str, inputs: Inputs, rig: Rig, tm: np.ndarray, handedness: dict,
+                  log: Log | None = None) -> dict:
+    """Finger sanity (:mod:`splicer.sanity`): backward bending, joint ranges, DIP/PIP, of the output
+    and of the hands frames it shows (read as the hand it really is), and odd hand frames.
+
+    Returns the JSON-ready report keys and adds a warning per finger that bends worse than its source.
+    """
+    from ..rig.handgeom import hand_frame_warnings
+    from ..transfer.sanity import finger_sanity, sanity_warnings
+
+    log = log or Log()
+    hm, harm = inputs.hands, rig.hands.sides[side]
+    reading = handedness.get("body", {}).get(side, {}).get("geometric") or side
+    san = finger_sanity(transfer.motion, transfer.arm, +1 if reading == "right" else -1)
+    src_read = handedness.get("hands", {}).get(side, {}).get("geometric") or side
+    if handedness.get("mirrored"):
+        src_read = "left" if src_read == "right" else "right"
+    shown = np.isfinite(tm)
+    frames = np.clip(np.round(tm[shown]).astype(np.int64), 0, hm.n_frames - 1)
+    src_san = finger_sanity(hm.with_channels(hm.channels[frames]), harm, +1 if src_read == "right" else -1)
+    for w in sanity_warnings(san, f"{side} side, output", src_san):
+        log.note(w)
+    if transfer.joints:
+        for w in (hand_frame_warnings(transfer.motion.skeleton, transfer.arm, inputs.body.source or "body")
+                  + hand_frame_warnings(hm.skeleton, harm, hm.source or "hands")):
+            log.note(w)
+    return {"finger_sanity": san, "finger_sanity_hands": src_san}
+
+
+def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: Alignment, tm: np.ndarray,
+                  opts: SpliceOptions, log: Log | None = None, *, pins: tuple = ()) -> Transfer:
+    """Drive ``side``'s finger joints of ``out`` by the hands take sampled at the time map.
+
+    A body without finger joints gets the hands' finger subtree grafted under its wrist.
+    The median merge (the paper) takes rotation medians along the path and blends jumps.
+    """
+    from ..transfer.timemap import blend_jumps, coverage_weights, median_rotations
+    from ..rig.roles import FINGERS, find_roles
+    from ..model.rotations import quat_slerp
+    from ..transfer.sampling import sample_rotations
+    from ..rig.handgeom import graft_scale
+    from ..rig.handonly import coincident_forearm, wrist_source_notes
+    from ..transfer.fingers import FingerMap, carried_rotations, finger_map, graft_fingers
+
+    log = log or Log()
+    log.progress(f"{side}: transfer", 0.0)
+    bm, hm, cfg = inputs.body, inputs.hands, inputs.config
+    barm = find_roles(out.skeleton, source=bm.source, mapping=cfg.joints.get("body"), up=rig.body.up).sides[side]
+    harm = rig.hands.sides[side]
+    extra: dict = {}
+    if not any(f in barm.fingers for f in FINGERS):
+        gs = graft_scale(bm.skeleton, rig.body.sides[side], hm.skeleton, harm)  # hand size, else forearm
+        out, barm = graft_fingers(out, barm, hm.skeleton, harm, gs.scale)
+        log.note(f"{side} side: the body has no finger joints; grafted the hands' {len(barm.finger_joints)} finger "
+                 f"joints under {out.skeleton.names[barm.wrist]} at scale {gs.scale:.4g} ({gs.method})")
+        extra["graft"] = {"scale": gs.scale, "method": gs.method}
+    fmap = finger_map(out.skeleton, barm, hm.skeleton, harm)
+    if opts.wrist == "hands":
+        forearm = coincident_forearm(hm.skeleton, harm)  # a forearm joint at the wrist's place (Leap) counts
+        if forearm is None:
+            raise SplicerError(f"{hm.source or 'hands'}: --wrist hands needs a forearm joint above the {side} "
+                               "wrist in the hands file")
+        for msg in wrist_source_notes(hm, harm, forearm):
+            log.note(msg)
+        fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj, fmap.bones)
+    sub = sorted({j for g in fmap.hands for j in g})
+    local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj, fmap.bones)
+    hq = hm.joint_rotations(sub)
+    covered = np.flatnonzero(np.isfinite(tm))
+    tm = np.interp(np.arange(len(tm)), covered, tm[covered])  # uncovered frames: the nearest covered one
+    if opts.merge == "timemap":
+        q = sample_rotations(hq, tm)
+    else:
+        ratio, last, n = inputs.spaces.ratio, hm.n_frames - 1, bm.n_frames
+        path = alignment.path
+        a, b = alignment.covered if alignment.covered is not None else (0, n - 1)
+        keep = (path[:, 0] >= a) & (path[:, 0] <= b) & np.isfinite(path[:, 1])
+        q = sample_rotations(hq, tm)  # uncovered rows: the time map held at its ends (weight 0 below)
+        q[a:b + 1] = median_rotations(hq, np.clip(path[keep, 1] * ratio, 0, last),
+                                      path[keep, 0].astype(np.int64) - a, b - a + 1)
+        q = blend_jumps(q, tm, jump=3.0 * max(ratio, 1.0), window=opts.blend_window)
+        fixed = np.array(sorted({p.body for p in pins}), dtype=np.int64)
+        if len(fixed):  # pinned frames show exactly the time map's (pinned) hands frame
+            q[fixed] = sample_rotations(hq, tm[fixed])
+    if fmap.body:
+        carried = carried_rotations(q, local)
+        if alignment.covered is not None:  # uncovered body frames keep the body's own rotations
+            w = coverage_weights(len(tm), alignment.covered, window=int(round(opts.uncovered_blend_s * bm.fps)))
+            carried = quat_slerp(out.joint_rotations(list(fmap.body)), carried, w[:, None])
+        out = out.with_rotations(list(fmap.body), carried)
+    else:
+        log.note(f"{side} side: no finger joints could be paired between body and hands")
+    log.tick("transfer")
+    return Transfer(out, {out.skeleton.names[b]: [hm.skeleton.names[j] for j in g]
+                          for b, g in zip(fmap.body, fmap.hands)}, barm, extra)

@@ -240,6 +240,7 @@ def main(argv=None) -> int:
                             hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
                             offset_s=args.offset, noise_ratio=args.noise_ratio)
         with tx:  # every output is staged, and appears only at tx.commit()
+            progress("write", 0.0)
             write_motion(result.motion, out)  # BVH or FBX by suffix
             if args.report:
                 _write_json(result.report.to_dict(), Path(args.report))

@@ -170,6 +170,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         raise type(e)(f"{s} side: {e}") from None
     conf = None
     if p1 is not None:
+        log.progress(f"{s}: confidence", 0.0)
         conf = pass_confidence(p1, fps)
         log.tick("confidence")
     if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:

@@ -101,11 +101,13 @@ def condition_hands(inputs: Inputs, rig: Rig, opts: SpliceOptions, log: Log | No
 
     log = log or Log()
     hm, repairs = inputs.hands, []
+    log.progress("checks: dropouts", 0.0)
     if opts.repair == "on":  # dropouts and gaps of the hand capture, repaired before aligning (and listed)
         hm, repairs = repair_motion(hm, hand_joints(hm.skeleton, [rig.hands.sides[s] for s in rig.sides]))
         if repairs:
             log.note(repairs_summary(repairs, hm.source or "hands"))
     mode = opts.mirror_hands or inputs.config.mirror_hands or "auto"
+    log.progress("checks: handedness", 0.5)
     hm, handedness = resolve_handedness(inputs.body, rig.body, hm, rig.hands, rig.sides, mode=mode, note=log.note)
     log.tick("checks")
     return Conditioned(replace(inputs, hands=hm),

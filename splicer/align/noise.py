@@ -30,14 +30,17 @@ def sign_change_rate(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone:
     >>> round(sign_change_rate(mk), 2)  # only 3 of the 12 coordinates move
     0.25
     """
-    rel = markers.relative()
+    return _sign_change_rate(markers.relative(), markers.fps, smooth_s, dead_zone)
+
+
+def _sign_change_rate(rel: np.ndarray, fps: float, smooth_s: float, dead_zone: float) -> float:
     if rel.shape[0] < 2 or rel.size == 0:
         return 0.0
-    vel, _ = _smooth_derivatives(rel, markers.fps, smooth_s)
+    vel, _ = _smooth_derivatives(rel, fps, smooth_s)
     eps = dead_zone * float(np.sqrt(np.mean(vel**2)))
     sg = np.where(vel > eps, 1, np.where(vel < -eps, -1, 0))
     changes = np.count_nonzero(sg[1:] != sg[:-1]) / (sg.shape[1] * sg.shape[2])
-    return float(changes / (rel.shape[0] / markers.fps))
+    return float(changes / (rel.shape[0] / fps))
 
 
 def swing_rate(markers: Markers, *, hysteresis: float = 0.25) -> float:
@@ -55,7 +58,10 @@ def swing_rate(markers: Markers, *, hysteresis: float = 0.25) -> float:
     >>> round(swing_rate(Markers(pts, np.zeros((600, 3)), np.zeros(600), 1, 30.0, "left")), 2)  # x of 4 markers: 4 of 12
     0.33
     """
-    rel = markers.relative()
+    return _swing_rate(markers.relative(), markers.fps, hysteresis)
+
+
+def _swing_rate(rel: np.ndarray, fps: float, hysteresis: float = 0.25) -> float:
     if rel.shape[0] < 2 or rel.size == 0:
         return 0.0
     x = rel.reshape(rel.shape[0], -1)
@@ -68,7 +74,7 @@ def swing_rate(markers: Markers, *, hysteresis: float = 0.25) -> float:
         side = np.where(x[:, c] > h[c], 1, np.where(x[:, c] < -h[c], -1, 0))
         side = side[side != 0]
         crossings += int(np.count_nonzero(side[1:] != side[:-1]))
-    return float(crossings / x.shape[1] / (rel.shape[0] / markers.fps))
+    return float(crossings / x.shape[1] / (rel.shape[0] / fps))
 
 
 def matched_smoothing(body: Markers, hands: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE,
@@ -90,14 +96,15 @@ def matched_smoothing(body: Markers, hands: Markers, *, smooth_s: float = SMOOTH
         The width chosen (seconds), and the tempo-compensated ratio of the two rates at
         ``smooth_s`` (>= 1; 1.0 when a take is still).
     """
-    rb = sign_change_rate(body, smooth_s=smooth_s, dead_zone=dead_zone)
-    sb, sh = swing_rate(body), swing_rate(hands)
+    rel_b, rel_h = body.relative(), hands.relative()  # shoulder-relative, once per take
+    rb = _sign_change_rate(rel_b, body.fps, smooth_s, dead_zone)
+    sb, sh = _swing_rate(rel_b, body.fps), _swing_rate(rel_h, hands.fps)
     if smooth_s <= 0 or min(rb, sb, sh) <= 0:
         return smooth_s, 1.0  # a still take: nothing to compare
     k = float(np.clip(sb / sh, 0.25, 4.0))  # the hands take is about k times slower
 
     def excess(w: float, b: float) -> float:
-        h = k * sign_change_rate(hands, smooth_s=k * w, dead_zone=dead_zone)
+        h = k * _sign_change_rate(rel_h, hands.fps, k * w, dead_zone)
         return float(max(b / h, h / b)) if h > 0 else np.inf
 
     first = excess(smooth_s, rb)
@@ -105,6 +112,6 @@ def matched_smoothing(body: Markers, hands: Markers, *, smooth_s: float = SMOOTH
         return smooth_s, first
     for step in steps[1:]:
         w = smooth_s * step
-        if excess(w, sign_change_rate(body, smooth_s=w, dead_zone=dead_zone)) <= ratio:
+        if excess(w, _sign_change_rate(rel_b, body.fps, w, dead_zone)) <= ratio:
             return float(w), first
     return float(smooth_s * steps[-1]), first

@@ -100,7 +100,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         log.note(f"{s} side: one take's arm is noisier (its motion changes direction {noisier:.1f}x as often, "
                  f"tempo allowed for): markers smoothed over {smooth_s:g} s instead of {opts.smooth_s:g} s "
                  "for the phase metric")
-    elif noisier > D.NOISE_WARN:
+    elif opts.noise_ratio is None and noisier > D.NOISE_WARN:  # the user has not chosen a ratio yet
         log.note(f"{s} side: one take's arm looks noisier (its motion changes direction {noisier:.1f}x as often, "
                  "tempo allowed for; a second performance or a jittery solve?): if the alignment is off, "
                  "try --noise-ratio 1.2")

@@ -32,6 +32,15 @@ SMOOTH_STEPS = (1.0, 2.0, 4.0, 6.0, 8.0)
 #: D1's sign dead zone: components below this share of the motion's RMS velocity
 #: (acceleration) count as zero.
 DEAD_ZONE = 0.01
+#: D1's sign ramp: beyond the dead zone the sign rises linearly to 1 over this share of the
+#: motion's RMS velocity (acceleration), so D1 is continuous in the input; 0 is the paper's step.
+SIGN_RAMP = 0.03
+#: Pass 1's time map is the expected hands frame over the paths near the best one, each
+#: weighted by exp(-cost / PASS1_TEMPERATURE) (D1 units; :mod:`splicer.align.posterior`);
+#: 0 takes the best path alone (the paper).
+PASS1_TEMPERATURE = 24.0
+#: Hands time each side of the best path that the weighed paths may use, seconds.
+POSTERIOR_RADIUS_S = 2.0
 #: Pass 2's departure penalty, radians per band width of departure from the pass-1 warp.
 PASS2_WEIGHT = 2.0
 #: Weight of D1 (normalised by 24) added to D2 in pass 2; 0 is the paper's pass 2.

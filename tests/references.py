@@ -17,13 +17,15 @@ def d1_reference(body: PhaseFeatures, hands: PhaseFeatures, i: int, j: int, thet
     R = np.eye(3)
     R[a, a], R[a, b], R[b, a], R[b, b] = np.cos(th), -np.sin(th), np.sin(th), np.cos(th)
 
-    def sgn(x, eps):
-        return np.where(x > eps, 1.0, np.where(x < -eps, -1.0, 0.0))
+    def sgn(x, eps, ramp):
+        # 0 inside the dead zone, then a linear rise to +-1 over ``ramp`` (a step when ramp == 0)
+        mag = np.clip((np.abs(x) - eps) / ramp, 0.0, 1.0) if ramp > 0 else (np.abs(x) > eps).astype(float)
+        return np.sign(x) * mag
 
     vh = hands.vel[j] @ R.T
     ah = hands.acc[j] @ R.T
-    return float(np.sum((sgn(body.vel[i], body.eps_vel) - sgn(vh, hands.eps_vel)) ** 2)
-                 + np.sum((sgn(body.acc[i], body.eps_acc) - sgn(ah, hands.eps_acc)) ** 2))
+    return float(np.sum((sgn(body.vel[i], body.eps_vel, body.ramp_vel) - sgn(vh, hands.eps_vel, hands.ramp_vel)) ** 2)
+                 + np.sum((sgn(body.acc[i], body.eps_acc, body.ramp_acc) - sgn(ah, hands.eps_acc, hands.ramp_acc)) ** 2))
 
 
 def d2_reference(body: PalmFeatures, hands: PalmFeatures, i: int, j: int) -> float:

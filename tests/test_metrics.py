@@ -17,11 +17,12 @@ def _markers(rng, T, up=1, fps=30.0):
     return Markers(pts, rng.normal(size=(T, 3)) * 0.1, np.cumsum(rng.normal(size=T)) * 0.05, up, fps, "left")
 
 
+@pytest.mark.parametrize("ramp", [0.0, 0.03, 0.5])
 @pytest.mark.parametrize("theta", ["window", "heading"])
 @pytest.mark.parametrize("up", [1, 2])
-def test_d1_kernel_matches_reference(rng, theta, up):
-    body = phase_features(_markers(rng, 40, up))
-    hands = phase_features(_markers(rng, 55, up))
+def test_d1_kernel_matches_reference(rng, theta, up, ramp):
+    body = phase_features(_markers(rng, 40, up), sign_ramp=ramp)
+    hands = phase_features(_markers(rng, 55, up), sign_ramp=ramp)
     band = make_band(40, 55, 20.0)
     rows = d1_cost(body, hands, theta=theta)(band, 0, 40)
     for i in range(40):
@@ -52,6 +53,38 @@ def test_theta_undoes_a_known_turn(rng, up, angle):
     assert np.degrees(kgp_theta(wb[4], wh[4])) == pytest.approx(-angle, abs=1e-9)
 
 
+def test_sign_ramp_worked_answer():
+    """One marker moving along the up axis only: velocity 0.5 (body) against 2.0 (hands), dead
+    zone 0.2, ramp 1.0.  The body's sign is (0.5 - 0.2) / 1.0 = 0.3, the hands' 1: D1 sums
+    (0.3 - 1)^2 = 0.49 over the velocity; the accelerations are 0 (below their dead zone).
+    With the step (ramp 0) both signs are 1 and D1 is 0."""
+    from splicer.align.costs import PhaseFeatures
+
+    def feats(v, ramp):
+        vel = np.zeros((1, 1, 3))
+        vel[0, 0, 1] = v
+        win = np.zeros((1, 2, 5))
+        win[0, 0, 0] = 1.0  # any non-degenerate window: theta = 0 between identical windows
+        return PhaseFeatures(vel, np.zeros((1, 1, 3)), 0.2, 0.2, win, np.zeros(1), 1, ramp, ramp)
+
+    band = make_band(1, 1, 5.0)
+    assert d1_cost(feats(0.5, 1.0), feats(2.0, 1.0))(band, 0, 1)[0, 0] == pytest.approx(0.49)
+    assert d1_cost(feats(0.5, 0.0), feats(2.0, 0.0))(band, 0, 1)[0, 0] == 0.0
+    assert d1_cost(feats(-0.5, 1.0), feats(0.1, 1.0))(band, 0, 1)[0, 0] == pytest.approx(0.09)  # -0.3 vs 0
+
+
+def test_d1_is_continuous_in_the_input(rng):
+    """With the ramp, a change of 1e-9 in the input moves D1 by at most ~1e-6 (the step jumps by 1)."""
+    mk = _markers(rng, 60)
+    body = phase_features(_markers(rng, 50))
+    band = make_band(50, 60, 30.0)
+    a = d1_cost(body, phase_features(mk))(band, 0, 50)
+    moved = Markers(mk.points + rng.normal(0, 1e-9, mk.points.shape), mk.shoulder, mk.heading, 1, 30.0, "left")
+    b = d1_cost(body, phase_features(moved))(band, 0, 50)
+    ok = np.isfinite(a)
+    assert np.max(np.abs(a[ok] - b[ok])) < 1e-5
+
+
 def test_d1_invariant_to_turning_the_hands(rng):
     mk = _markers(rng, 60)
     q = yaw_quat_deg(40.0, 1)
@@ -72,7 +105,9 @@ def test_d1_is_zero_on_itself_and_amplitude_invariant(rng):
     band = make_band(50, 50, 100.0)
     rows = d1_cost(fa, fb)(band, 0, 50)
     diag = np.array([rows[i, i - band.lo[i]] for i in range(50)])
-    assert np.all(diag == 0)
+    assert np.all(diag < 1e-20)  # the ramp's share of 0.3x the RMS: equal up to rounding
+    rows = d1_cost(phase_features(mk, sign_ramp=0.0), phase_features(small, sign_ramp=0.0))(band, 0, 50)
+    assert np.all(np.array([rows[i, i - band.lo[i]] for i in range(50)]) == 0)
 
 
 # --- noise matching: the phase metric's smoothing follows the noisier take ------------------

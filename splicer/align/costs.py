@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit, prange
 from ..filters import gaussian_filter1d
 
-from ..defaults import DEAD_ZONE, SMOOTH_S
+from ..defaults import DEAD_ZONE, SIGN_RAMP, SMOOTH_S
 from ..rig.markers import Markers
 
 __all__ = [
@@ -67,6 +67,8 @@ class PhaseFeatures:
     window: np.ndarray
     heading: np.ndarray
     up: int
+    ramp_vel: float = 0.0
+    ramp_acc: float = 0.0
 
     @property
     def n_frames(self) -> int:
@@ -123,7 +125,8 @@ def _smooth_derivatives(x: np.ndarray, fps: float, smooth_s: float) -> tuple[np.
     return vel, acc
 
 
-def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE) -> PhaseFeatures:
+def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE,
+                   sign_ramp: float = SIGN_RAMP) -> PhaseFeatures:
     """Prepare D1's inputs for one motion.
 
     Parameters
@@ -140,37 +143,45 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         the same relative scale as a free body capture.  Default: the splice's,
         :data:`splicer.defaults.DEAD_ZONE`.
     """
+    ramp = rampa = sign_ramp
     rel = markers.relative()
     vel, acc = _smooth_derivatives(rel, markers.fps, smooth_s)
-    eps_v = dead_zone * float(np.sqrt(np.mean(vel**2))) if vel.size else 0.0
-    eps_a = dead_zone * float(np.sqrt(np.mean(acc**2))) if acc.size else 0.0
+    rms_v = float(np.sqrt(np.mean(vel**2))) if vel.size else 0.0
+    rms_a = float(np.sqrt(np.mean(acc**2))) if acc.size else 0.0
     win = window_points(markers.points, markers.up)
     return PhaseFeatures(
-        np.ascontiguousarray(vel), np.ascontiguousarray(acc), eps_v, eps_a, win,
+        np.ascontiguousarray(vel), np.ascontiguousarray(acc), dead_zone * rms_v, dead_zone * rms_a, win,
         np.ascontiguousarray(markers.heading, dtype=np.float64), markers.up,
+        ramp * rms_v, rampa * rms_a,
     )
 
 
 @njit(cache=True, inline="always")
-def _sgn(x, eps):
+def _sgn(x, eps, ramp):
+    # the dead-zoned sign; with ramp > 0 it rises linearly from 0 at eps to 1 at eps + ramp
     if x > eps:
+        if ramp > 0.0 and x < eps + ramp:
+            return (x - eps) / ramp
         return 1.0
     if x < -eps:
+        if ramp > 0.0 and x > -eps - ramp:
+            return (x + eps) / ramp
         return -1.0
     return 0.0
 
 
 @njit(cache=True)
-def _signs(x, eps, out):
+def _signs(x, eps, ramp, out):
     for t in range(x.shape[0]):
         for m in range(x.shape[1]):
             for k in range(x.shape[2]):
-                out[t, m, k] = _sgn(x[t, m, k], eps)
+                out[t, m, k] = _sgn(x[t, m, k], eps, ramp)
 
 
 @njit(cache=True, parallel=True)
-def _d1_rows(i0, i1, lo, hi, width, sv, sa, wb, hb, vh, ah, evh, eah, wh, hh, up, mode, out):
-    # sv, sa: body velocity / acceleration signs (T, K, 3); vh, ah: raw hands derivatives.
+def _d1_rows(i0, i1, lo, hi, width, sv, sa, wb, hb, vh, ah, evh, eah, rvh, rah, wh, hh, up, mode, out):
+    # sv, sa: body velocity / acceleration signs (T, K, 3); vh, ah: raw hands derivatives;
+    # evh, eah: the hands' dead zones; rvh, rah: their sign ramps.
     # cos/sin of theta come straight from the KGP sums: theta = atan2(num, den).
     a = (up + 1) % 3
     b = (up + 2) % 3
@@ -199,17 +210,17 @@ def _d1_rows(i0, i1, lo, hi, width, sv, sa, wb, hb, vh, ah, evh, eah, wh, hh, up
                 sn = np.sin(th)
             cost = 0.0
             for m in range(K):
-                d = sv[i, m, up] - _sgn(vh[j, m, up], evh)
+                d = sv[i, m, up] - _sgn(vh[j, m, up], evh, rvh)
                 cost += d * d
-                d = sa[i, m, up] - _sgn(ah[j, m, up], eah)
+                d = sa[i, m, up] - _sgn(ah[j, m, up], eah, rah)
                 cost += d * d
-                d = sv[i, m, a] - _sgn(cs * vh[j, m, a] - sn * vh[j, m, b], evh)
+                d = sv[i, m, a] - _sgn(cs * vh[j, m, a] - sn * vh[j, m, b], evh, rvh)
                 cost += d * d
-                d = sv[i, m, b] - _sgn(sn * vh[j, m, a] + cs * vh[j, m, b], evh)
+                d = sv[i, m, b] - _sgn(sn * vh[j, m, a] + cs * vh[j, m, b], evh, rvh)
                 cost += d * d
-                d = sa[i, m, a] - _sgn(cs * ah[j, m, a] - sn * ah[j, m, b], eah)
+                d = sa[i, m, a] - _sgn(cs * ah[j, m, a] - sn * ah[j, m, b], eah, rah)
                 cost += d * d
-                d = sa[i, m, b] - _sgn(sn * ah[j, m, a] + cs * ah[j, m, b], eah)
+                d = sa[i, m, b] - _sgn(sn * ah[j, m, a] + cs * ah[j, m, b], eah, rah)
                 cost += d * d
             out[r, c] = cost
         for c in range(hi[i] - lo[i] + 1, width):
@@ -238,14 +249,15 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window")
     mode = 0 if theta == "window" else 1
     sv = np.empty_like(body.vel)
     sa = np.empty_like(body.acc)
-    _signs(body.vel, body.eps_vel, sv)
-    _signs(body.acc, body.eps_acc, sa)
+    _signs(body.vel, body.eps_vel, body.ramp_vel, sv)
+    _signs(body.acc, body.eps_acc, body.ramp_acc, sa)
 
     def cost(band, i0: int, i1: int) -> np.ndarray:
         width = band.max_row_width  # the engine wants every chunk padded to the widest row
         out = np.empty((i1 - i0, width))
         _d1_rows(i0, i1, band.lo, band.hi, width, sv, sa, body.window, body.heading, hands.vel, hands.acc,
-                 hands.eps_vel, hands.eps_acc, hands.window, hands.heading, body.up, mode, out)
+                 hands.eps_vel, hands.eps_acc, hands.ramp_vel, hands.ramp_acc, hands.window, hands.heading,
+                 body.up, mode, out)
         return out
 
     return cost

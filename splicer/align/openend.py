@@ -6,6 +6,7 @@ open-ended pass hands to the full-rate pass.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -169,7 +170,7 @@ def d1_sample(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window
     def pick(f: PhaseFeatures, k):
         t = f.n_frames
         idx = np.sort(rng.choice(t, k, replace=False)) if t > k else np.arange(t)
-        return PhaseFeatures(f.vel[idx], f.acc[idx], f.eps_vel, f.eps_acc, f.window[idx], f.heading[idx], f.up)
+        return dataclasses.replace(f, vel=f.vel[idx], acc=f.acc[idx], window=f.window[idx], heading=f.heading[idx])
 
     b, h = pick(body, rows), pick(hands, cols)
     band = Band(n=b.n_frames, m=h.n_frames, width=math.inf, lo=np.zeros(b.n_frames, np.int64),

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .band import full_band
-from ..defaults import DEAD_ZONE, SMOOTH_S
+from ..defaults import DEAD_ZONE, SIGN_RAMP, SMOOTH_S
 from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from ..errors import BandError
 from ..rig.markers import Markers
@@ -96,7 +96,7 @@ def _run(cost, band: Band, progress=None, **ends) -> DTWResult:
 
 
 def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth_s: float = SMOOTH_S,
-          dead_zone: float = DEAD_ZONE, theta: str = "window", coarse_fps: float | None = None,
+          dead_zone: float = DEAD_ZONE, sign_ramp: float = SIGN_RAMP, theta: str = "window", coarse_fps: float | None = None,
           coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
@@ -111,7 +111,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         Band width W in body frames.
     constraints : sequence of Constraint
         In the frames of these two sequences.
-    smooth_s, dead_zone, theta
+    smooth_s, dead_zone, sign_ramp, theta
         See :func:`splicer.metrics.phase_features` and :func:`splicer.metrics.d1_cost`.
     progress : callable, optional
         ``progress(fraction)`` as the rows are done.
@@ -164,15 +164,15 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
     if ends == "open":
         return _pass1_open(body, hands, width=width, constraints=constraints, smooth_s=smooth_s,
-                           dead_zone=dead_zone, theta=theta,
+                           dead_zone=dead_zone, sign_ramp=sign_ramp, theta=theta,
                            coarse_fps=OPEN_COARSE_FPS if coarse_fps is None else coarse_fps,
                            coarse_width=coarse_width, progress=progress, offset_s=offset_s,
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
                            max_coarse_cells=max_coarse_cells, step_penalty=step_penalty,
                            horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight)
     hw = 1.0 if horizontal_weight is None else float(horizontal_weight)
-    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
-    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
     n, m = body.n_frames, hands.n_frames
     notes: tuple = ()
     if coarse_fps is not None and coarse_fps < body.fps:
@@ -180,7 +180,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
         ccons = _coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)
         cw = (coarse_width if coarse_width is not None else width) / factor
-        coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone, theta=theta,
+        coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone,
+                       sign_ramp=sign_ramp, theta=theta,
                        step_penalty=step_penalty, horizontal_weight=hw)
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints)
@@ -196,7 +197,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                       notes=notes)
 
 
-def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, coarse_fps, coarse_width, progress,
+def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
                 offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight):
     n, m = body.n_frames, hands.n_frames
     cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
@@ -208,8 +209,8 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
     nc, mc = cb.n_frames, ch.n_frames
     notes: tuple = ()
     ccons = _coarse_constraints(constraints, factor, nc, mc) if factor > 1.0 else list(constraints)
-    fcb = phase_features(cb, smooth_s=smooth_s, dead_zone=dead_zone)
-    fch = phase_features(ch, smooth_s=smooth_s, dead_zone=dead_zone)
+    fcb = phase_features(cb, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
+    fch = phase_features(ch, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
     d1c = d1_cost(fcb, fch, theta=theta)
     u = uncovered_cost
     if u is None:
@@ -238,8 +239,8 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, theta, 
                      "matrix at full rate instead",)
     else:
         band = cband
-    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone)
-    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone)
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
     d1 = d1_cost(fb, fh, theta=theta)
     res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
                horizontal_weight=horizontal_weight)
@@ -268,7 +269,8 @@ def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):
 
 def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
           diagonal_weight: float = 0.0, d1_weight: float = 0.0, smooth_s: float = SMOOTH_S,
-          dead_zone: float = DEAD_ZONE, theta: str = "window", progress=None, covered=None) -> PassResult:
+          dead_zone: float = DEAD_ZONE, sign_ramp: float = SIGN_RAMP, theta: str = "window", progress=None,
+          covered=None) -> PassResult:
     """Pass 2: banded DTW with the palm metric D2 between the body and the pass-1-warped hands.
 
     Parameters
@@ -288,7 +290,7 @@ def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
     d1_weight : float
         Weight of the phase metric D1 (normalised by 24) added to D2, so D2 refines within
         phases instead of overriding them; 0 is the paper's pass 2.
-    smooth_s, dead_zone, theta
+    smooth_s, dead_zone, sign_ramp, theta
         D1's settings, as in :func:`pass1`.
     progress : callable, optional
         ``progress(fraction)`` as the rows are done.
@@ -304,8 +306,8 @@ def pass2(body: Markers, hands_warped: Markers, *, width: float, constraints=(),
     fh: PalmFeatures = palm_features(hands_warped.points)
     d1 = None
     if d1_weight > 0:
-        d1 = d1_cost(phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone),
-                     phase_features(hands_warped, smooth_s=smooth_s, dead_zone=dead_zone), theta=theta)
+        d1 = d1_cost(phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp),
+                     phase_features(hands_warped, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp), theta=theta)
     n = body.n_frames
     cost = _pass2_cost(d2_cost(fb, fh), d1, max(width, 1.0), diagonal_weight, d1_weight)
     if covered is not None and tuple(covered) != (0, n - 1):

@@ -41,6 +41,7 @@ class Alignment:
     covered: tuple | None = None  # (first, last) body frames the hands cover; None: all
     confidence: object = None  # per-frame confidence and estimated error, when computed
     ends: str = "fixed"  # the end conditions used: "open" or "fixed"
+    posterior: object = None  # pass 1's expected path and its spread (splicer.align.posterior), when used
 
     def __repr__(self) -> str:
         return f"Alignment(body_frames={len(self.per_frame)}, passes={[p.name for p in (self.pass1, self.pass2) if p]})"
@@ -88,6 +89,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     from ..align.band import band_frames
     from ..align.confidence import pass_confidence
     from ..align.noise import matched_smoothing
+    from ..align.posterior import expected_frames
 
     log = log or Log()
     s, bmk, hmk = markers.side, markers.body, markers.hands
@@ -112,6 +114,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
         guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
         p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
+                  sign_ramp=opts.sign_ramp,
                   theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
                   uncovered_quantile=opts.uncovered_quantile,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
@@ -119,7 +122,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
                   progress=lambda f: log.progress(f"{s}: pass 1", f))
         return p, w1, cons
 
-    p1 = p2 = None
+    p1 = p2 = posterior = None
     covered = None
     used = "fixed" if ends == "fixed" else "open"
     try:
@@ -135,7 +138,10 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
                         log.note(f"{s} side: {why[1:]}")
             for msg in p1.notes:
                 log.note(f"{s} side: {msg}")
-            path, per_frame = p1.path, path_median(p1.path, n)
+            # the expected path over the near-best ones, not the best path alone: smooth in the input
+            path = p1.path
+            per_frame, posterior = expected_frames(p1, temperature=opts.temperature,
+                                                   radius=int(round(opts.posterior_radius_s * bmk.fps)))
             if used == "open":
                 covered = _cover_pins(tuple(int(v) for v in p1.covered), markers.pins, n)
                 if covered != tuple(p1.covered):
@@ -152,7 +158,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
             filled = hold_ends(per_frame)
             p2 = pass2(bmk, warp_markers(hmk, filled), width=w2, constraints=remap_constraints(cons, filled),
                        diagonal_weight=opts.pass2_weight, d1_weight=opts.pass2_d1_weight, smooth_s=smooth_s,
-                       dead_zone=opts.dead_zone, theta=opts.theta, covered=covered,
+                       dead_zone=opts.dead_zone, sign_ramp=opts.sign_ramp, theta=opts.theta, covered=covered,
                        progress=lambda f: log.progress(f"{s}: pass 2", f))
             path = np.stack([p2.path[:, 0], np.interp(p2.path[:, 1], np.arange(n), filled)], axis=1)
             per_frame = compose(filled, p2.path, n)
@@ -177,7 +183,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "
                  f"({(covered[1] - covered[0] + 1) / fps:.1f} s of {n / fps:.1f} s): check that both takes show the "
                  "same performance, or pin a matching pair")
-    return Alignment(per_frame, path, p1, p2, cons, covered, conf, used)
+    return Alignment(per_frame, path, p1, p2, cons, covered, conf, used, posterior)
 
 
 #: ends="auto": an open-ended path starting and ending within this of the corners means the

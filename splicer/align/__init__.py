@@ -1,1 +1,1 @@
-"""The alignment: frame spaces, bands, the DTW engine (open ends), the two metrics, the passes, confidence."""
+"""The alignment: frame spaces, bands, the DTW engine (open ends), the two metrics, the passes, the expected path, confidence."""

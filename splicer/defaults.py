@@ -35,10 +35,12 @@ DEAD_ZONE = 0.01
 #: D1's sign ramp: beyond the dead zone the sign rises linearly to 1 over this share of the
 #: motion's RMS velocity (acceleration), so D1 is continuous in the input; 0 is the paper's step.
 SIGN_RAMP = 0.03
-#: Pass 1's time map is the expected hands frame over the paths near the best one, each
-#: weighted by exp(-cost / PASS1_TEMPERATURE) (D1 units; :mod:`splicer.align.posterior`);
-#: 0 takes the best path alone (the paper).
-PASS1_TEMPERATURE = 24.0
+#: Pass 1's time map is the expected path over the paths near the best one, each weighted by
+#: exp(-cost / (PASS1_TEMPERATURE_S x body fps)) (:mod:`splicer.align.posterior`): a path that
+#: costs one D1 unit more per body frame for this many seconds is e times less likely (24 D1
+#: units at 30 fps; per second of body time, so the same at any frame rate).  0 takes the best
+#: path alone (the paper).
+PASS1_TEMPERATURE_S = 0.8
 #: Hands time each side of the best path that the weighed paths may use, seconds.
 POSTERIOR_RADIUS_S = 2.0
 #: Pass 2's departure penalty, radians per band width of departure from the pass-1 warp.

@@ -31,7 +31,7 @@ class SpliceOptions:
     smooth_s: float = D.SMOOTH_S  # marker smoothing before derivatives, seconds
     dead_zone: float = D.DEAD_ZONE  # sign dead zone, fraction of the motion's RMS speed
     sign_ramp: float = D.SIGN_RAMP  # the sign rises to 1 over this share of the RMS speed past the dead zone; 0 = step
-    temperature: float = D.PASS1_TEMPERATURE  # pass 1: D1 units per e-fold of a path's weight; 0 = the best path alone
+    temperature_s: float = D.PASS1_TEMPERATURE_S  # pass 1: a path costing 1 D1 unit more per frame for this long is e times less likely; 0 = the best path alone
     posterior_radius_s: float = D.POSTERIOR_RADIUS_S  # pass 1: hands time each side of the best path weighed, seconds
     noise_ratio: float | None = D.NOISE_RATIO  # e.g. 1.2: smooth both takes more while one's signs flip this many times as often; None: off
     timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
@@ -58,7 +58,7 @@ _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off"),
             "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "auto", "open", "fixed")}
-_NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "sign_ramp", "temperature",
+_NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "sign_ramp", "temperature_s",
                 "posterior_radius_s", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
                 "coarse_above_s")
 

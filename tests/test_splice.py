@@ -52,8 +52,8 @@ def test_identity_pair_recovers_identity_and_fingers(take, roles):
     body = _flat_fingers(take, roles)
     n = take.n_frames
     fj = _finger_joints(roles)
-    # the best path alone (temperature 0): exactly the diagonal
-    r = splice(body, take, temperature=0.0)
+    # the best path alone (temperature_s 0): exactly the diagonal
+    r = splice(body, take, temperature_s=0.0)
     for side in ("left", "right"):
         np.testing.assert_allclose(_frames(r, side), np.arange(n), atol=1e-6)
     err = quat_angle(r.motion.rotations[:, fj], take.rotations[:, fj])

@@ -211,3 +211,31 @@ def test_splice_is_smooth_in_its_input():
     for side in ref.sides:
         assert np.nanmax(np.abs(got.sides[side].hands_frame - ref.sides[side].hands_frame)) < 0.05, side
     assert quat_angle_deg(got.motion.rotations, ref.motion.rotations).max() < 0.05
+
+
+def test_temperature_is_per_second_of_body_time(monkeypatch):
+    """``temperature_s`` 0.8 at a 30 fps body is 24 D1 units per e-fold (0.8 s x 30 frames), the
+    tube's radius is ``posterior_radius_s`` in body frames, and 0 keeps the best path."""
+    from pathlib import Path
+
+    import splicer.align.posterior as P
+    from splicer.io.bvh import read_bvh
+    from splicer.pipeline import splice
+
+    seen = []
+    real = P.expected_frames
+
+    def spy(p, *, temperature, radius):
+        seen.append((temperature, radius))
+        return real(p, temperature=temperature, radius=radius)
+
+    monkeypatch.setattr(P, "expected_frames", spy)
+    root = Path(__file__).resolve().parents[1] / "motions"
+    body, hands = read_bvh(root / "sample_body.bvh"), read_bvh(root / "sample_hands.bvh")
+    assert body.fps == pytest.approx(30.0)
+    r = splice(body, hands, side="left", temperature_s=0.8, posterior_radius_s=2.0)
+    assert seen == [(pytest.approx(24.0), 60)]
+    assert r.sides["left"].alignment.posterior is not None
+    seen.clear()
+    r = splice(body, hands, side="left", temperature_s=0.0)
+    assert seen == [(0.0, 60)] and r.sides["left"].alignment.posterior is None

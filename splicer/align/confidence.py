@@ -33,10 +33,13 @@ Rows the path leaves uncovered get ``spread_frames = est_error_s = NaN`` and
 ``tau = threshold * median(local cost along the path)``: an alternative is "almost as good"
 when it costs at most ``threshold`` typical path cells more in total.
 
-Memory: local costs, forward and backward costs as float32, 12 bytes per band cell (the
-forward and backward values are stored relative to their row minimum, so float32 keeps
-their differences to about 1e-3 of a cost unit), plus O(band) float64 rows.  Time
-O(n * band), about two DTW passes.
+Memory: the local costs as float32, 4 bytes per band cell, plus O(band) float64 rows: the
+forward costs are kept only as one checkpoint row per block of rows and recomputed, block by
+block from the end, while the backward sweep runs, so each row's statistics are taken as
+soon as both of its costs exist (the forward and backward values are stored relative to
+their row minimum as float32, which keeps their differences to about 1e-3 of a cost unit;
+:func:`through_costs`, for tests and plots, keeps all three arrays, 12 bytes per cell).
+Time O(n * band), about two DTW passes plus one more forward sweep.
 """
 
 from __future__ import annotations
@@ -45,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .confidence_kernels import _backward, _forward, _row_stats
+from .confidence_kernels import _backward, _backward_rows, _forward, _forward_rows, _row_stats
 from .paths import path_median
 from .dtw import CHUNK_CELLS, Band, end_costs
 
@@ -53,6 +56,11 @@ __all__ = ["Confidence", "row_confidence", "pass_confidence", "through_costs", "
 
 #: Default excess threshold, in units of the median local cost along the path.
 CONFIDENCE_THRESHOLD = 1.0
+
+#: :func:`row_confidence` keeps the forward and backward costs of this many band cells at a
+#: time (about 4 MiB each as float32); the rest of the forward pass survives as one float64
+#: row per block (a checkpoint) and is recomputed block by block during the backward pass.
+BLOCK_CELLS = 1 << 20
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,9 +136,62 @@ def _gather(cost, band: Band, off: np.ndarray) -> np.ndarray:
             raise ValueError(f"cost matrix must have shape (n, m) = ({band.n}, {band.m}), got {c.shape}")
         for i in range(n):
             flat[off[i]:off[i + 1]] = c[i, band.lo[i]:band.hi[i] + 1]
-    if np.isnan(flat).any() or np.isneginf(flat).any():
+    if not bool(np.all(flat > -np.inf)):  # one pass: False for NaN and for -inf
         raise ValueError("local costs contain NaN or -inf")
     return flat
+
+
+def _recurrence(band: Band, open_begin, open_end, uncovered_cost, step_penalty, horizontal_weight):
+    """Validated end conditions of the recurrence: ``(sc, ec, ob, oe, pen, hw)``."""
+    ob = band.open_begin if open_begin is None else bool(open_begin)
+    oe = band.open_end if open_end is None else bool(open_end)
+    sc, ec = end_costs(band, ob, oe, uncovered_cost)
+    pen = float(step_penalty)
+    if not (pen >= 0 and np.isfinite(pen)):
+        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
+    hw = float(horizontal_weight)
+    if not 0.0 < hw <= 1.0:
+        raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
+    return sc, ec, ob, oe, pen, hw
+
+
+def _blocked_row_stats(c, band: Band, off, sc, ec, ob, oe, pen, hx, optimum, tau, jc, spread, err, exmin):
+    """``_row_stats`` of every row without the whole forward and backward arrays (O(block) memory).
+
+    Sweep 1 runs the forward recurrence and keeps its float64 state at the start of each block
+    of rows; sweep 2 walks the blocks from the last, recomputes the block's forward costs from
+    its checkpoint (the same arithmetic, so the same float32 values as one full sweep), runs the
+    backward recurrence over it from the state the later block left, and takes the rows'
+    statistics.  Fills ``spread``, ``err``, ``exmin`` in place.
+    """
+    n = band.n
+    lo = np.ascontiguousarray(band.lo, np.int64)
+    hi = np.ascontiguousarray(band.hi, np.int64)
+    wmax = int(np.max(hi - lo + 1))
+    rows = max(1, min(n, BLOCK_CELLS // wmax))
+    starts = list(range(0, n, rows))
+    ck_prev = np.empty((len(starts), wmax))
+    ck_pst = np.empty((len(starts), wmax), np.bool_)
+    prev = np.full(wmax, np.inf)
+    pst = np.zeros(wmax, np.bool_)
+    fmin = np.empty(n)
+    bmin = np.empty(n)
+    fbuf = np.empty(rows * wmax, np.float32)
+    bbuf = np.empty(rows * wmax, np.float32)
+    for b, i0 in enumerate(starts):
+        ck_prev[b] = prev
+        ck_pst[b] = pst
+        _forward_rows(c, lo, hi, off, sc, ob, pen, hx, i0, min(n, i0 + rows), prev, pst, fbuf, off[i0], fmin)
+    nxt = np.full(wmax, np.inf)
+    nst = np.zeros(wmax, np.bool_)
+    for b in range(len(starts) - 1, -1, -1):
+        i0, i1 = starts[b], min(n, starts[b] + rows)
+        prev[:] = ck_prev[b]
+        pst[:] = ck_pst[b]
+        _forward_rows(c, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, fbuf, off[i0], fmin)
+        _backward_rows(c, lo, hi, off, ec, oe, pen, hx, band.m, i0, i1, nxt, nst, bbuf, off[i0], bmin)
+        _row_stats(fbuf, fmin[i0:i1], bbuf, bmin[i0:i1], lo[i0:i1], hi[i0:i1], off[i0:i1 + 1] - off[i0], optimum,
+                   tau, jc[i0:i1], spread[i0:i1], err[i0:i1], exmin[i0:i1])
 
 
 def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end: bool | None = None,
@@ -156,15 +217,8 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
         ``(c, fwd, fmin, bwd, bmin, off)``: flat float32 local, forward (relative to ``fmin``)
         and backward (relative to ``bmin``) costs and the row offsets.
     """
-    ob = band.open_begin if open_begin is None else bool(open_begin)
-    oe = band.open_end if open_end is None else bool(open_end)
-    sc, ec = end_costs(band, ob, oe, uncovered_cost)
-    pen = float(step_penalty)
-    if not (pen >= 0 and np.isfinite(pen)):
-        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
-    hw = float(horizontal_weight)
-    if not 0.0 < hw <= 1.0:
-        raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
+    sc, ec, ob, oe, pen, hw = _recurrence(band, open_begin, open_end, uncovered_cost, step_penalty,
+                                          horizontal_weight)
     n = band.n
     widths = band.hi - band.lo + 1
     off = np.zeros(n + 1, np.int64)
@@ -219,7 +273,8 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
 
     Notes
     -----
-    12 bytes per band cell (float32 local, forward and backward costs) plus O(n) floats;
+    4 bytes per band cell (the float32 local costs) plus O(n + BLOCK_CELLS) floats; the
+    forward and backward costs exist one block of rows at a time (:data:`BLOCK_CELLS`).
     O(n * band) time.
     """
     if not (fps > 0 and np.isfinite(fps)):
@@ -232,9 +287,11 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
     if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] < 1:
         raise ValueError(f"path must have shape (K, 2), got {path.shape}")
     n = band.n
-    _, (c, fwd, fmin, bwd, bmin, off) = through_costs(cost, band, open_begin=open_begin, open_end=open_end,
-                                                      uncovered_cost=uncovered_cost, step_penalty=step_penalty,
-                                                      horizontal_weight=horizontal_weight)
+    sc, ec, ob, oe, pen, hw = _recurrence(band, open_begin, open_end, uncovered_cost, step_penalty,
+                                          horizontal_weight)
+    off = np.zeros(n + 1, np.int64)
+    np.cumsum(band.hi - band.lo + 1, out=off[1:])
+    c = _gather(cost, band, off)
     # the path's own cost: local costs along it plus its uncovered rows
     idx = off[path[:, 0]] + path[:, 1] - band.lo[path[:, 0]]
     local = c[idx].astype(np.float64)
@@ -250,8 +307,7 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
     spread = np.full(n, np.nan)
     err = np.full(n, np.nan)
     exmin = np.full(n, np.inf)
-    _row_stats(fwd, fmin, bwd, bmin, np.ascontiguousarray(band.lo, np.int64),
-               np.ascontiguousarray(band.hi, np.int64), off, optimum, tau, jc, spread, err, exmin)
+    _blocked_row_stats(c, band, off, sc, ec, ob, oe, pen, hw - 1.0, optimum, tau, jc, spread, err, exmin)
     est = err / float(fps)
     conf = np.where(np.isfinite(est), 1.0 / (1.0 + (np.nan_to_num(est) / error_scale_s) ** 2), 0.0)
     return Confidence(spread_frames=spread, est_error_s=est, confidence=conf, threshold=tau,

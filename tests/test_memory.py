@@ -1,0 +1,48 @@
+"""Memory of long takes (issue 12): the per-joint rotations the hands checks and the markers convert are
+not kept for the rest of the splice, and the stages' fresh channel arrays are taken over, not copied."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from splicer.io.bvh import read_bvh
+from splicer.options import resolve_options
+from splicer.pipeline import Log, condition_hands, find_rig, load_inputs, side_markers
+
+MOTIONS = Path(__file__).resolve().parents[1] / "motions"
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return read_bvh(MOTIONS / "sample_body.bvh"), read_bvh(MOTIONS / "sample_hands.bvh")
+
+
+def test_the_checks_and_the_markers_keep_no_joint_rotations(pair):
+    body, hands = pair
+    opts = resolve_options(None, {})
+    inputs = load_inputs(body, hands, None, Log())
+    rig = find_rig(inputs, opts, Log())
+    checked = condition_hands(inputs, rig, opts, Log())
+    for m in (body, hands, checked.inputs.body, checked.inputs.hands):
+        assert m._per_joint == {}
+    side_markers(checked.inputs, rig, rig.sides[0], Log())
+    assert checked.inputs.body._per_joint == {} and checked.inputs.hands._per_joint == {}
+
+
+def test_read_bvh_takes_over_the_parsed_array(monkeypatch):
+    """The motion keeps the parser's (T, C) array, frozen, not a copy of it."""
+    import splicer.io.bvh_read as bvh_read
+
+    made = []
+    real = bvh_read._parse_motion
+
+    def spy(*args):
+        made.append(real(*args))
+        return made[-1]
+
+    monkeypatch.setattr(bvh_read, "_parse_motion", spy)
+    m = read_bvh(MOTIONS / "sample_body.bvh")
+    assert m.channels is made[0] and not m.channels.flags.writeable

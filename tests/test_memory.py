@@ -46,3 +46,25 @@ def test_read_bvh_takes_over_the_parsed_array(monkeypatch):
     monkeypatch.setattr(bvh_read, "_parse_motion", spy)
     m = read_bvh(MOTIONS / "sample_body.bvh")
     assert m.channels is made[0] and not m.channels.flags.writeable
+
+
+@pytest.mark.parametrize("chunk", [97, 1000])
+def test_finger_angles_in_chunks_equal_all_frames_at_once(pair, monkeypatch, chunk):
+    """Every angle depends on its own frame only: chunks of 97 (not dividing T) and 1000 frames give
+    the same numbers bit for bit as one pass (the quaternions' signs may differ per chunk, the
+    rotations they apply do not)."""
+    import splicer.transfer.sanity as sanity
+    from splicer.rig.roles import find_roles
+
+    _, hands = pair
+    roles = find_roles(hands.skeleton, source="hands")
+    for side, arm in roles.sides.items():
+        whole = sanity._finger_angles(hands, arm, +1)
+        monkeypatch.setattr(sanity, "CHUNK_FRAMES", chunk)
+        parts = sanity.finger_angles(hands, arm, +1)
+        monkeypatch.undo()
+        assert hands.n_frames > chunk and parts.angles.keys() == whole.angles.keys()
+        for f, ang in whole.angles.items():
+            assert parts.angles[f].keys() == ang.keys()
+            for name, a in ang.items():
+                np.testing.assert_array_equal(parts.angles[f][name], a)

@@ -116,8 +116,8 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         if j not in quats:
             if any_unusable or len(sk.rotation_columns(j)) != 3:
                 quats[j] = _quats(motion, clean, j)
-            else:  # the motion's own (cached) rotations, which the splice reuses afterwards
-                quats[j] = motion.joint_rotations([j])[:, 0]
+            else:  # converted for this check only (a long take's rotations are not kept)
+                quats[j] = motion.joint_rotations([j], keep=False)[:, 0]
         return quats[j]
 
     # frozen: exact repeats, the rest of the hand moving, ending in a jump or at the end
@@ -171,6 +171,7 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         if good.size < 3:
             continue
         q = joint_quats(j)
+        quats.pop(j, None)  # the last use of this joint's rotations: one joint's at a time
         if q is None:
             continue
         qg = q if good.size == T else quat_hemisphere(q[good], axis=0)

@@ -28,7 +28,8 @@ def test_the_checks_and_the_markers_keep_no_joint_rotations(pair):
     checked = condition_hands(inputs, rig, opts, Log())
     for m in (body, hands, checked.inputs.body, checked.inputs.hands):
         assert m._per_joint == {}
-    side_markers(checked.inputs, rig, rig.sides[0], Log())
+    for s in rig.sides:
+        side_markers(checked.inputs, rig, s, Log())
     assert checked.inputs.body._per_joint == {} and checked.inputs.hands._per_joint == {}
 
 

@@ -257,13 +257,16 @@ def full_array_row_stats(C, band, path, fps, ob, oe, u, pen, hw, threshold=1.0):
     return spread, err / fps, exmin
 
 
+@pytest.mark.parametrize("keep_bytes", [0, 600, 1 << 30])
 @pytest.mark.parametrize("block_cells", [1, 7, 40, 1 << 20])
 @pytest.mark.parametrize("ends", [(False, False), (True, False), (False, True), (True, True)])
-def test_blocked_sweep_equals_whole_arrays(rng, monkeypatch, block_cells, ends):
-    """Blocks of one row, of a few rows (not dividing n) and one block: the same numbers, bit for bit,
-    as the statistics taken from whole forward and backward arrays."""
+def test_blocked_sweep_equals_whole_arrays(rng, monkeypatch, block_cells, ends, keep_bytes):
+    """Blocks of one row, of a few rows (not dividing n) and one block, with no, some and all local
+    costs kept between the sweeps: the same numbers, bit for bit, as the statistics taken from whole
+    forward and backward arrays."""
     import splicer.align.confidence as conf_mod
     monkeypatch.setattr(conf_mod, "BLOCK_CELLS", block_cells)
+    monkeypatch.setattr(conf_mod, "KEEP_COST_BYTES", keep_bytes)
     ob, oe = ends
     n, m = 23, 31
     for trial in range(3):
@@ -271,8 +274,8 @@ def test_blocked_sweep_equals_whole_arrays(rng, monkeypatch, block_cells, ends):
         u, pen, hw = [(0.0, 0.0, 1.0), (0.4, 0.1, 0.5), (2.0, 0.3, 1.0)][trial]
         band = full_band(n, m, open_begin=ob, open_end=oe) if (ob or oe) else make_band(n, m, 9.0)
         res = dtw(C, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw)
-        conf = row_confidence(C, band, res.path, 30.0, open_begin=ob, open_end=oe, uncovered_cost=u,
-                              step_penalty=pen, horizontal_weight=hw)
+        conf = row_confidence(C if trial != 1 else as_callable(C, band), band, res.path, 30.0, open_begin=ob,
+                              open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw)
         spread, est, exmin = full_array_row_stats(C, band, res.path, 30.0, ob, oe, u, pen, hw)
         np.testing.assert_array_equal(conf.spread_frames, spread)
         np.testing.assert_array_equal(conf.est_error_s, est)
@@ -300,3 +303,29 @@ def test_the_blocked_sweep_keeps_one_block_of_forward_costs(monkeypatch):
     # sweep 1 forward over the 4 blocks, sweep 2 again from the last block to the first
     assert [s[:2] for s in seen] == [(0, 3), (3, 6), (6, 9), (9, 10), (9, 10), (6, 9), (3, 6), (0, 3)]
     assert {s[2] for s in seen} == {15}
+
+
+@pytest.mark.parametrize("keep,calls", [("all", 4), ("none", 8), ("two", 6)])
+def test_local_costs_beyond_the_budget_are_computed_twice(monkeypatch, keep, calls):
+    """Worked numbers: 10 rows at most 5 cells wide, blocks of 3 rows (BLOCK_CELLS = 15): blocks at rows
+    0, 3, 6, 9.  All kept: one cost call per block; none kept: a second call for each block in the
+    backward sweep; a budget of exactly blocks 0 and 1 (4 bytes per cell): 2 and 3 asked again."""
+    import splicer.align.confidence as conf_mod
+    band = make_band(10, 10, 3.0)
+    widths = band.hi - band.lo + 1
+    assert widths.max() == 5 and widths[:3].sum() + widths[3:6].sum() == 27  # 3 4 5 | 5 5 5 | 5 5 4 | 3
+    monkeypatch.setattr(conf_mod, "BLOCK_CELLS", 15)
+    monkeypatch.setattr(conf_mod, "KEEP_COST_BYTES", {"all": 1 << 30, "none": 0, "two": 27 * 4}[keep])
+    C = np.random.default_rng(0).random((10, 10))
+    asked = []
+    f = as_callable(C, band)
+
+    def cost(i0, i1):
+        asked.append((i0, i1))
+        return f(i0, i1)
+
+    path = dtw(C, band).path
+    conf = row_confidence(cost, band, path, 30.0)
+    assert len(asked) == calls
+    assert asked[:4] == [(0, 3), (3, 6), (6, 9), (9, 10)]
+    np.testing.assert_array_equal(conf.est_error_s, row_confidence(C, band, path, 30.0).est_error_s)

@@ -42,9 +42,9 @@ def _forward(c, lo, hi, off, sc, ob, pen, hx, out, rowmin):
 def _forward_rows(c, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, out, base, rowmin):
     # Rows i0 .. i1-1 of _forward, continuing from the state of row i0-1: prev (float64
     # accumulated costs, row i0-1's cells first) and pst (those cells' best is a start), both
-    # of length >= the widest row and updated in place to row i1-1's state.  Row i is
-    # written at out[off[i] - base ...] (a block buffer when base = off[i0]); rowmin and c
-    # are indexed by the global row.
+    # of length >= the widest row and updated in place to row i1-1's state.  Row i is read
+    # at c[off[i] - base ...] and written at out[off[i] - base ...] (block buffers when
+    # base = off[i0]); rowmin is indexed by the global row.
     wmax = prev.shape[0]
     cur = np.full(wmax, np.inf)
     cst = np.zeros(wmax, np.bool_)
@@ -53,7 +53,7 @@ def _forward_rows(c, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, out, base,
         w = hi[i] - L + 1
         for k in range(w):
             j = L + k
-            cc = np.float64(c[off[i] + k])
+            cc = np.float64(c[off[i] - base + k])
             best = np.inf
             isst = False
             if i > 0:
@@ -103,7 +103,8 @@ def _backward(c, lo, hi, off, ec, oe, pen, hx, m, out, rowmin):
 def _backward_rows(c, lo, hi, off, ec, oe, pen, hx, m, i0, i1, nxt, nst, out, base, rowmin):
     # Rows i1-1 down to i0 of _backward, continuing from the state of row i1: nxt (float64
     # suffix costs of row i1's cells) and nst (their best is an end), updated in place to
-    # row i0's state.  Row i is written at out[off[i] - base ...]; c and rowmin are global.
+    # row i0's state.  Row i is read at c[off[i] - base ...] (c must also hold row i1 when
+    # i1 < n) and written at out[off[i] - base ...]; rowmin is indexed by the global row.
     n = lo.shape[0]
     wmax = nxt.shape[0]
     cur = np.full(wmax, np.inf)
@@ -119,15 +120,15 @@ def _backward_rows(c, lo, hi, off, ec, oe, pen, hx, m, i0, i1, nxt, nst, out, ba
                 nlo = lo[i + 1]
                 nhi = hi[i + 1]
                 if nlo <= j + 1 <= nhi:
-                    v = nxt[j + 1 - nlo] + np.float64(c[off[i + 1] + j + 1 - nlo])
+                    v = nxt[j + 1 - nlo] + np.float64(c[off[i + 1] - base + j + 1 - nlo])
                     if v < best:
                         best = v
                 if nlo <= j <= nhi and not (oe and j == m - 1 and nst[j - nlo]):
-                    v = nxt[j - nlo] + pen + np.float64(c[off[i + 1] + j - nlo])
+                    v = nxt[j - nlo] + pen + np.float64(c[off[i + 1] - base + j - nlo])
                     if v < best:
                         best = v
             if k < w - 1:
-                cc = np.float64(c[off[i] + k + 1])
+                cc = np.float64(c[off[i] - base + k + 1])
                 v = cur[k + 1] + pen + cc + (hx * cc if (hx != 0.0 and cc < np.inf) else 0.0)
                 if v < best:
                     best = v

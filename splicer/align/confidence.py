@@ -60,10 +60,11 @@ __all__ = ["Confidence", "row_confidence", "pass_confidence", "through_costs", "
 #: Default excess threshold, in units of the median local cost along the path.
 CONFIDENCE_THRESHOLD = 1.0
 
-#: :func:`row_confidence` keeps the forward and backward costs of this many band cells at a
-#: time (about 4 MiB each as float32); the rest of the forward pass survives as one float64
-#: row per block (a checkpoint) and is recomputed block by block during the backward pass.
-BLOCK_CELLS = 1 << 20
+#: :func:`row_confidence` keeps the local, forward and backward costs of this many band cells
+#: at a time (16 MiB each as float32; the cost callable's chunk, :data:`CHUNK_CELLS`); the rest
+#: of the forward pass survives as one float64 row per block (a checkpoint) and is recomputed
+#: block by block during the backward pass.
+BLOCK_CELLS = CHUNK_CELLS
 #: :func:`row_confidence` keeps the blocks' local costs (float32) up to this many bytes between
 #: its two sweeps and computes the others twice (a long pair with a wide band: more time, no more
 #: memory; below about 67 million band cells nothing is computed twice).
@@ -136,8 +137,11 @@ def _gather_rows(cost, band: Band, off: np.ndarray, i0: int, i1: int) -> np.ndar
             block = np.asarray(cost(a, b))
             if block.ndim != 2 or block.shape[0] != b - a or block.shape[1] < wmax:
                 raise ValueError(f"cost({a}, {b}) must return shape ({b - a}, >= {wmax}), got {block.shape}")
-            mask = np.arange(block.shape[1])[None, :] < widths[a:b, None]
-            flat[off[a] - base:off[b] - base] = block[mask]
+            w = widths[a:b]
+            if w.min() == w.max():  # rows of one width (most of a band): no boolean mask
+                flat[off[a] - base:off[b] - base] = block[:, :w[0]].reshape(-1)
+            else:
+                flat[off[a] - base:off[b] - base] = block[np.arange(block.shape[1])[None, :] < w[:, None]]
     else:
         c = np.asarray(cost, dtype=np.float64)
         if c.shape != (band.n, band.m):

@@ -233,3 +233,99 @@ def test_a_repeated_gesture_makes_the_overlap_ambiguous(rng):
     assert conf.ambiguous()[other].mean() > 0.9            # the other repetition
     assert not conf.ambiguous()[70:110].any()              # B is no place for A
     assert (conf.row_excess[res.covered[0]:res.covered[1] + 1] < 1e-3 * res.cost + 1e-6).all()
+
+
+def full_array_row_stats(C, band, path, fps, ob, oe, u, pen, hw, threshold=1.0):
+    """The statistics from whole forward and backward arrays (:func:`through_costs`, one sweep each):
+    the reference for the blocked sweep of :func:`row_confidence`."""
+    from splicer.align.confidence_kernels import _row_stats
+    from splicer.align.paths import path_median
+    _, (c, fwd, fmin, bwd, bmin, off) = through_costs(C, band, open_begin=ob, open_end=oe, uncovered_cost=u,
+                                                      step_penalty=pen, horizontal_weight=hw)
+    n = band.n
+    idx = off[path[:, 0]] + path[:, 1] - band.lo[path[:, 0]]
+    local = c[idx].astype(np.float64)
+    d = np.diff(path, axis=0)
+    weight = np.ones(len(local))
+    weight[1:][d[:, 0] == 0] = hw
+    optimum = (float(np.sum(weight * local)) + u * (int(path[0, 0]) + n - 1 - int(path[-1, 0]))
+               + pen * int(np.count_nonzero((d[:, 0] == 0) | (d[:, 1] == 0))))
+    tau = threshold * max(float(np.median(local)), 1e-12)
+    spread, err, exmin = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.inf)
+    _row_stats(fwd, fmin, bwd, bmin, band.lo.astype(np.int64), band.hi.astype(np.int64), off, optimum, tau,
+               path_median(path, n), spread, err, exmin)
+    return spread, err / fps, exmin
+
+
+@pytest.mark.parametrize("keep_bytes", [0, 600, 1 << 30])
+@pytest.mark.parametrize("block_cells", [1, 7, 40, 1 << 20])
+@pytest.mark.parametrize("ends", [(False, False), (True, False), (False, True), (True, True)])
+def test_blocked_sweep_equals_whole_arrays(rng, monkeypatch, block_cells, ends, keep_bytes):
+    """Blocks of one row, of a few rows (not dividing n) and one block, with no, some and all local
+    costs kept between the sweeps: the same numbers, bit for bit, as the statistics taken from whole
+    forward and backward arrays."""
+    import splicer.align.confidence as conf_mod
+    monkeypatch.setattr(conf_mod, "BLOCK_CELLS", block_cells)
+    monkeypatch.setattr(conf_mod, "KEEP_COST_BYTES", keep_bytes)
+    ob, oe = ends
+    n, m = 23, 31
+    for trial in range(3):
+        C = rng.random((n, m)) * 2
+        u, pen, hw = [(0.0, 0.0, 1.0), (0.4, 0.1, 0.5), (2.0, 0.3, 1.0)][trial]
+        band = full_band(n, m, open_begin=ob, open_end=oe) if (ob or oe) else make_band(n, m, 9.0)
+        res = dtw(C, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw)
+        conf = row_confidence(C if trial != 1 else as_callable(C, band), band, res.path, 30.0, open_begin=ob,
+                              open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw)
+        spread, est, exmin = full_array_row_stats(C, band, res.path, 30.0, ob, oe, u, pen, hw)
+        np.testing.assert_array_equal(conf.spread_frames, spread)
+        np.testing.assert_array_equal(conf.est_error_s, est)
+        np.testing.assert_array_equal(conf.row_excess, np.maximum(exmin, 0.0))
+
+
+def test_the_blocked_sweep_keeps_one_block_of_forward_costs(monkeypatch):
+    """Worked numbers: 10 rows at most 5 cells wide (44 cells) in blocks of BLOCK_CELLS = 15 cells ->
+    3 rows a block, blocks starting at rows 0, 3, 6, 9; the block buffers hold 3 x 5 = 15 cells."""
+    import splicer.align.confidence as conf_mod
+    import splicer.align.confidence_kernels as kern
+    monkeypatch.setattr(conf_mod, "BLOCK_CELLS", 15)
+    seen = []
+    real = kern._forward_rows
+
+    def spy(c, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, out, base, rowmin):
+        seen.append((i0, i1, out.size))
+        return real(c, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, out, base, rowmin)
+
+    monkeypatch.setattr(conf_mod, "_forward_rows", spy)
+    band = make_band(10, 10, 3.0)
+    assert band.max_row_width == 5 and band.n_cells == 44
+    C = np.random.default_rng(0).random((10, 10))
+    row_confidence(C, band, dtw(C, band).path, 30.0)
+    # sweep 1 forward over the 4 blocks, sweep 2 again from the last block to the first
+    assert [s[:2] for s in seen] == [(0, 3), (3, 6), (6, 9), (9, 10), (9, 10), (6, 9), (3, 6), (0, 3)]
+    assert {s[2] for s in seen} == {15}
+
+
+@pytest.mark.parametrize("keep,calls", [("all", 4), ("none", 8), ("two", 6)])
+def test_local_costs_beyond_the_budget_are_computed_twice(monkeypatch, keep, calls):
+    """Worked numbers: 10 rows at most 5 cells wide, blocks of 3 rows (BLOCK_CELLS = 15): blocks at rows
+    0, 3, 6, 9.  All kept: one cost call per block; none kept: a second call for each block in the
+    backward sweep; a budget of exactly blocks 0 and 1 (4 bytes per cell): 2 and 3 asked again."""
+    import splicer.align.confidence as conf_mod
+    band = make_band(10, 10, 3.0)
+    widths = band.hi - band.lo + 1
+    assert widths.max() == 5 and widths[:3].sum() + widths[3:6].sum() == 27  # 3 4 5 | 5 5 5 | 5 5 4 | 3
+    monkeypatch.setattr(conf_mod, "BLOCK_CELLS", 15)
+    monkeypatch.setattr(conf_mod, "KEEP_COST_BYTES", {"all": 1 << 30, "none": 0, "two": 27 * 4}[keep])
+    C = np.random.default_rng(0).random((10, 10))
+    asked = []
+    f = as_callable(C, band)
+
+    def cost(i0, i1):
+        asked.append((i0, i1))
+        return f(i0, i1)
+
+    path = dtw(C, band).path
+    conf = row_confidence(cost, band, path, 30.0)
+    assert len(asked) == calls
+    assert asked[:4] == [(0, 3), (3, 6), (6, 9), (9, 10)]
+    np.testing.assert_array_equal(conf.est_error_s, row_confidence(C, band, path, 30.0).est_error_s)

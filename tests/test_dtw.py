@@ -404,3 +404,13 @@ def test_band_frames(spec, expected):
 def test_band_frames_errors(spec, match):
     with pytest.raises(ConstraintError, match=match):
         band_frames(spec, n=100)
+
+
+def test_check_costs_tells_nan_from_minus_inf_and_lets_plus_inf_pass():
+    from splicer.align.dtw import _check_costs
+    _check_costs(np.array([[0.0, np.inf], [1.0, 2.0]]), "rows 0..1")  # +inf: a forbidden cell, allowed
+    _check_costs(np.zeros((0, 3)), "rows 0..-1")
+    with pytest.raises(ValueError, match=r"local cost rows 0\.\.1 contains NaN"):
+        _check_costs(np.array([[0.0, -np.inf], [np.nan, 2.0]]), "rows 0..1")  # both: NaN is named
+    with pytest.raises(ValueError, match=r"local cost matrix contains -inf"):
+        _check_costs(np.array([[0.0, -np.inf]]), "matrix")

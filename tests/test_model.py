@@ -158,3 +158,68 @@ def test_with_translations_and_slice():
         m.with_translations(1, np.zeros((4, 3)))
     s = out.slice(1, 3)
     assert s.n_frames == 2 and s.frame_time == m.frame_time and s.source == "x.bvh"
+
+
+def test_joint_rotations_keep_and_forget():
+    """keep=True (default) stores one (T, 4) array per joint; keep=False and forget_rotations store none;
+    the values are the same either way (spine: 90 deg about X -> (sqrt(1/2), sqrt(1/2), 0, 0))."""
+    ch = np.zeros((3, 11))
+    ch[:, 7] = 90.0
+    m = Motion(_skeleton(), ch, 1 / 30)
+    s = np.sqrt(0.5)
+    q = m.joint_rotations([1], keep=False)
+    np.testing.assert_allclose(q[:, 0], [[s, s, 0, 0]] * 3, atol=1e-15)
+    assert m._per_joint == {}
+    np.testing.assert_array_equal(m.joint_rotations([1, 2]), np.stack([q[:, 0], [[1.0, 0, 0, 0]] * 3], axis=1))
+    assert sorted(m._per_joint) == [("r", 1), ("r", 2)]
+    m.forget_rotations()
+    assert m._per_joint == {}
+    np.testing.assert_array_equal(m.joint_rotations([1], keep=False), q)
+
+
+def test_operations_take_over_their_fresh_arrays_and_freeze_them():
+    """with_rotations / with_translations / frames hand their new channel arrays to the constructor,
+    which keeps them (no second copy) read-only; a caller's own array is still copied and left writable."""
+    from splicer.model import motion as motion_mod
+
+    made = []
+    real = motion_mod._readonly
+
+    def spy(a, dtype=np.float64):
+        out = real(a, dtype)
+        if isinstance(a, motion_mod._Owned):
+            made.append((a.array, out))
+        return out
+
+    m = Motion(_skeleton(), np.arange(44.0).reshape(4, 11), 1 / 30)
+    mine = np.zeros((4, 11))
+    other = Motion(_skeleton(), mine, 1 / 30)
+    assert not np.shares_memory(other.channels, mine) and mine.flags.writeable
+    try:
+        motion_mod._readonly = spy
+        a = m.with_rotations([1], np.tile([1.0, 0, 0, 0], (4, 1, 1)))
+        b = m.with_translations(0, np.ones((4, 3)))
+        c = m.frames([3, 0, 3])
+    finally:
+        motion_mod._readonly = real
+    assert len(made) == 3
+    for (given, kept), res in zip(made, (a, b, c)):
+        assert kept is given and res.channels is given and not res.channels.flags.writeable
+        assert not np.shares_memory(res.channels, m.channels)
+    np.testing.assert_array_equal(c.channels, m.channels[[3, 0, 3]])
+    np.testing.assert_array_equal(a.channels[:, 6:9], 0.0)          # spine's angles, identity
+    np.testing.assert_array_equal(a.channels[:, :6], m.channels[:, :6])
+
+
+def test_owned_arrays_of_another_dtype_or_layout_are_copied():
+    from splicer.model.motion import _Owned, _readonly
+
+    f32 = np.ones((3, 2), np.float32)
+    view = np.ones((4, 6))[:, ::2]
+    for a in (f32, view):
+        out = _readonly(_Owned(a))
+        assert out.dtype == np.float64 and not np.shares_memory(out, a) and a.flags.writeable
+        assert not out.flags.writeable
+    own = np.ones((3, 2))
+    out = _readonly(_Owned(own))
+    assert out is own and not own.flags.writeable

@@ -33,10 +33,16 @@ Rows the path leaves uncovered get ``spread_frames = est_error_s = NaN`` and
 ``tau = threshold * median(local cost along the path)``: an alternative is "almost as good"
 when it costs at most ``threshold`` typical path cells more in total.
 
-Memory: local costs, forward and backward costs as float32, 12 bytes per band cell (the
-forward and backward values are stored relative to their row minimum, so float32 keeps
-their differences to about 1e-3 of a cost unit), plus O(band) float64 rows.  Time
-O(n * band), about two DTW passes.
+Memory: O(n + band) plus at most :data:`KEEP_COST_BYTES` of local costs, whatever the
+number of band cells: the local, forward and backward costs exist one block of rows at a
+time.  The forward costs survive the first sweep as one checkpoint row per block and are
+recomputed, block by block from the end, while the backward sweep runs, so each row's
+statistics are taken as soon as both of its costs exist; local costs beyond the budget are
+computed again in the second sweep (the forward and backward values are stored relative to
+their row minimum as float32, which keeps their differences to about 1e-3 of a cost unit;
+:func:`through_costs`, for tests and plots, keeps all three arrays, 12 bytes per cell).
+Time O(n * band): about two DTW passes plus one more forward sweep, and the local costs
+computed twice where they exceed the budget.
 """
 
 from __future__ import annotations
@@ -45,7 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .confidence_kernels import _backward, _forward, _row_stats
+from .confidence_kernels import _backward, _backward_rows, _forward, _forward_rows, _row_stats
 from .paths import path_median
 from .dtw import CHUNK_CELLS, Band, end_costs
 
@@ -53,6 +59,17 @@ __all__ = ["Confidence", "row_confidence", "pass_confidence", "through_costs", "
 
 #: Default excess threshold, in units of the median local cost along the path.
 CONFIDENCE_THRESHOLD = 1.0
+
+#: :func:`row_confidence` keeps the local, forward and backward costs of this many band cells
+#: at a time (4 MiB each as float32); the rest of the forward pass survives as one float64 row
+#: per block (a checkpoint) and is recomputed block by block during the backward pass.  (Blocks
+#: of :data:`CHUNK_CELLS` cells, 4x larger, measured 80-100 MB more at the peak of the 20-minute
+#: pair.)
+BLOCK_CELLS = 1 << 20
+#: :func:`row_confidence` keeps the blocks' local costs (float32) up to this many bytes between
+#: its two sweeps and computes the others twice (a long pair with a wide band: more time, no more
+#: memory; below about 67 million band cells nothing is computed twice).
+KEEP_COST_BYTES = 256 << 20
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,30 +124,114 @@ class Confidence:
 
 # ---------------------------------------------------------------- public
 
-def _gather(cost, band: Band, off: np.ndarray) -> np.ndarray:
-    """Local costs of every band cell, flat float32 (row i at off[i] .. off[i+1]-1)."""
-    n = band.n
+def _gather_rows(cost, band: Band, off: np.ndarray, i0: int, i1: int) -> np.ndarray:
+    """Local costs of the band cells of rows ``i0 .. i1-1``, flat float32 (row i at
+    ``off[i] - off[i0]``); a callable is asked for at most :data:`CHUNK_CELLS` cells at a time."""
     widths = band.hi - band.lo + 1
-    flat = np.empty(int(off[-1]), dtype=np.float32)
+    flat = np.empty(int(off[i1] - off[i0]), dtype=np.float32)
+    base = int(off[i0])
     if callable(cost):
         wmax = band.max_row_width
-        chunk = max(1, min(n, CHUNK_CELLS // wmax))
-        for i0 in range(0, n, chunk):
-            i1 = min(n, i0 + chunk)
-            block = np.asarray(cost(i0, i1))
-            if block.ndim != 2 or block.shape[0] != i1 - i0 or block.shape[1] < wmax:
-                raise ValueError(f"cost({i0}, {i1}) must return shape ({i1 - i0}, >= {wmax}), got {block.shape}")
-            mask = np.arange(block.shape[1])[None, :] < widths[i0:i1, None]
-            flat[off[i0]:off[i1]] = block[mask]
+        chunk = max(1, CHUNK_CELLS // wmax)
+        for a in range(i0, i1, chunk):
+            b = min(i1, a + chunk)
+            block = np.asarray(cost(a, b))
+            if block.ndim != 2 or block.shape[0] != b - a or block.shape[1] < wmax:
+                raise ValueError(f"cost({a}, {b}) must return shape ({b - a}, >= {wmax}), got {block.shape}")
+            w = widths[a:b]
+            if w.min() == w.max():  # rows of one width (most of a band): no boolean mask
+                flat[off[a] - base:off[b] - base] = block[:, :w[0]].reshape(-1)
+            else:
+                flat[off[a] - base:off[b] - base] = block[np.arange(block.shape[1])[None, :] < w[:, None]]
     else:
         c = np.asarray(cost, dtype=np.float64)
         if c.shape != (band.n, band.m):
             raise ValueError(f"cost matrix must have shape (n, m) = ({band.n}, {band.m}), got {c.shape}")
-        for i in range(n):
-            flat[off[i]:off[i + 1]] = c[i, band.lo[i]:band.hi[i] + 1]
-    if np.isnan(flat).any() or np.isneginf(flat).any():
+        for i in range(i0, i1):
+            flat[off[i] - base:off[i + 1] - base] = c[i, band.lo[i]:band.hi[i] + 1]
+    if not bool(np.all(flat > -np.inf)):  # one pass: False for NaN and for -inf
         raise ValueError("local costs contain NaN or -inf")
     return flat
+
+
+def _gather(cost, band: Band, off: np.ndarray) -> np.ndarray:
+    """Local costs of every band cell, flat float32 (row i at off[i] .. off[i+1]-1)."""
+    return _gather_rows(cost, band, off, 0, band.n)
+
+
+def _recurrence(band: Band, open_begin, open_end, uncovered_cost, step_penalty, horizontal_weight):
+    """Validated end conditions of the recurrence: ``(sc, ec, ob, oe, pen, hw)``."""
+    ob = band.open_begin if open_begin is None else bool(open_begin)
+    oe = band.open_end if open_end is None else bool(open_end)
+    sc, ec = end_costs(band, ob, oe, uncovered_cost)
+    pen = float(step_penalty)
+    if not (pen >= 0 and np.isfinite(pen)):
+        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
+    hw = float(horizontal_weight)
+    if not 0.0 < hw <= 1.0:
+        raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
+    return sc, ec, ob, oe, pen, hw
+
+
+def _blocked_row_stats(cost, band: Band, off, path, sc, ec, ob, oe, pen, hx, path_optimum, jc, spread, err, exmin):
+    """``_row_stats`` of every row without whole forward, backward or local-cost arrays.
+
+    Sweep 1 gathers the local costs block by block of rows (:data:`BLOCK_CELLS` cells), runs
+    the forward recurrence, keeps its float64 state at the start of each block and the local
+    costs along the path, and keeps blocks' local costs while they fit in
+    :data:`KEEP_COST_BYTES`.  ``path_optimum(local) -> (optimum, tau)`` then gives the
+    thresholds.  Sweep 2 walks the blocks from the last, takes the block's local costs (kept,
+    else gathered again: the same values), recomputes its forward costs from the checkpoint
+    (the same arithmetic, so the same float32 values as one full sweep), runs the backward
+    recurrence from the state the later block left and takes the rows' statistics.  Fills
+    ``spread``, ``err``, ``exmin`` in place.
+    """
+    n = band.n
+    lo = np.ascontiguousarray(band.lo, np.int64)
+    hi = np.ascontiguousarray(band.hi, np.int64)
+    wmax = int(np.max(hi - lo + 1))
+    rows = max(1, min(n, BLOCK_CELLS // wmax))
+    starts = list(range(0, n, rows))
+    ck_prev = np.empty((len(starts), wmax))
+    ck_pst = np.empty((len(starts), wmax), np.bool_)
+    prev = np.full(wmax, np.inf)
+    pst = np.zeros(wmax, np.bool_)
+    fmin = np.empty(n)
+    bmin = np.empty(n)
+    fbuf = np.empty(rows * wmax, np.float32)
+    bbuf = np.empty(rows * wmax, np.float32)
+    prow = path[:, 0]
+    local = np.empty(len(path), np.float32)
+    kept: dict[int, np.ndarray] = {}
+    room = KEEP_COST_BYTES
+    for b, i0 in enumerate(starts):
+        i1 = min(n, i0 + rows)
+        cb = _gather_rows(cost, band, off, i0, i1)
+        pa, pb = np.searchsorted(prow, [i0, i1])
+        r = prow[pa:pb]
+        local[pa:pb] = cb[off[r] - off[i0] + path[pa:pb, 1] - lo[r]]
+        ck_prev[b] = prev
+        ck_pst[b] = pst
+        _forward_rows(cb, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, fbuf, off[i0], fmin)
+        if cb.nbytes <= room:
+            kept[b] = cb
+            room -= cb.nbytes
+    optimum, tau = path_optimum(local.astype(np.float64))
+    nxt = np.full(wmax, np.inf)
+    nst = np.zeros(wmax, np.bool_)
+    after = np.zeros(0, np.float32)  # the local costs of the row after the block (none after the last)
+    for b in range(len(starts) - 1, -1, -1):
+        i0, i1 = starts[b], min(n, starts[b] + rows)
+        cb = kept.pop(b) if b in kept else _gather_rows(cost, band, off, i0, i1)
+        c = np.concatenate([cb, after]) if after.size else cb
+        after = cb[:off[i0 + 1] - off[i0]].copy()
+        prev[:] = ck_prev[b]
+        pst[:] = ck_pst[b]
+        _forward_rows(c, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, fbuf, off[i0], fmin)
+        _backward_rows(c, lo, hi, off, ec, oe, pen, hx, band.m, i0, i1, nxt, nst, bbuf, off[i0], bmin)
+        _row_stats(fbuf, fmin[i0:i1], bbuf, bmin[i0:i1], lo[i0:i1], hi[i0:i1], off[i0:i1 + 1] - off[i0], optimum,
+                   tau, jc[i0:i1], spread[i0:i1], err[i0:i1], exmin[i0:i1])
+    return optimum, tau
 
 
 def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end: bool | None = None,
@@ -156,15 +257,8 @@ def through_costs(cost, band: Band, *, open_begin: bool | None = None, open_end:
         ``(c, fwd, fmin, bwd, bmin, off)``: flat float32 local, forward (relative to ``fmin``)
         and backward (relative to ``bmin``) costs and the row offsets.
     """
-    ob = band.open_begin if open_begin is None else bool(open_begin)
-    oe = band.open_end if open_end is None else bool(open_end)
-    sc, ec = end_costs(band, ob, oe, uncovered_cost)
-    pen = float(step_penalty)
-    if not (pen >= 0 and np.isfinite(pen)):
-        raise ValueError(f"step_penalty must be >= 0 and finite, got {step_penalty!r}")
-    hw = float(horizontal_weight)
-    if not 0.0 < hw <= 1.0:
-        raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
+    sc, ec, ob, oe, pen, hw = _recurrence(band, open_begin, open_end, uncovered_cost, step_penalty,
+                                          horizontal_weight)
     n = band.n
     widths = band.hi - band.lo + 1
     off = np.zeros(n + 1, np.int64)
@@ -219,8 +313,8 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
 
     Notes
     -----
-    12 bytes per band cell (float32 local, forward and backward costs) plus O(n) floats;
-    O(n * band) time.
+    O(n + BLOCK_CELLS) memory plus at most :data:`KEEP_COST_BYTES` of kept local costs
+    (the others are computed twice); O(n * band) time.
     """
     if not (fps > 0 and np.isfinite(fps)):
         raise ValueError(f"fps must be positive and finite, got {fps!r}")
@@ -232,26 +326,28 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
     if path.ndim != 2 or path.shape[1] != 2 or path.shape[0] < 1:
         raise ValueError(f"path must have shape (K, 2), got {path.shape}")
     n = band.n
-    _, (c, fwd, fmin, bwd, bmin, off) = through_costs(cost, band, open_begin=open_begin, open_end=open_end,
-                                                      uncovered_cost=uncovered_cost, step_penalty=step_penalty,
-                                                      horizontal_weight=horizontal_weight)
-    # the path's own cost: local costs along it plus its uncovered rows
-    idx = off[path[:, 0]] + path[:, 1] - band.lo[path[:, 0]]
-    local = c[idx].astype(np.float64)
+    sc, ec, ob, oe, pen, hw = _recurrence(band, open_begin, open_end, uncovered_cost, step_penalty,
+                                          horizontal_weight)
+    off = np.zeros(n + 1, np.int64)
+    np.cumsum(band.hi - band.lo + 1, out=off[1:])
     covered = (int(path[0, 0]), int(path[-1, 0]))
     d = np.diff(path, axis=0)
     bends = int(np.count_nonzero((d[:, 0] == 0) | (d[:, 1] == 0)))
-    weight = np.ones(len(local))
+    weight = np.ones(len(path))
     weight[1:][d[:, 0] == 0] = float(horizontal_weight)       # cells entered by a (i, j-1) step
-    optimum = (float(np.sum(weight * local)) + float(uncovered_cost) * (covered[0] + (n - 1 - covered[1]))
-               + float(step_penalty) * bends)
-    tau = float(threshold) * max(float(np.median(local)), 1e-12)
+
+    def path_optimum(local):
+        """The path's own cost (local costs along it plus its uncovered rows) and the threshold."""
+        optimum = (float(np.sum(weight * local)) + float(uncovered_cost) * (covered[0] + (n - 1 - covered[1]))
+                   + float(step_penalty) * bends)
+        return optimum, float(threshold) * max(float(np.median(local)), 1e-12)
+
     jc = path_median(path, n)
     spread = np.full(n, np.nan)
     err = np.full(n, np.nan)
     exmin = np.full(n, np.inf)
-    _row_stats(fwd, fmin, bwd, bmin, np.ascontiguousarray(band.lo, np.int64),
-               np.ascontiguousarray(band.hi, np.int64), off, optimum, tau, jc, spread, err, exmin)
+    _, tau = _blocked_row_stats(cost, band, off, path, sc, ec, ob, oe, pen, hw - 1.0, path_optimum, jc, spread, err,
+                                exmin)
     est = err / float(fps)
     conf = np.where(np.isfinite(est), 1.0 / (1.0 + (np.nan_to_num(est) / error_scale_s) ** 2), 0.0)
     return Confidence(spread_frames=spread, est_error_s=est, confidence=conf, threshold=tau,

@@ -34,15 +34,26 @@ def _forward(c, lo, hi, off, sc, ob, pen, hx, out, rowmin):
     for i in range(n):
         wmax = max(wmax, hi[i] - lo[i] + 1)
     prev = np.full(wmax, np.inf)
-    cur = np.full(wmax, np.inf)
     pst = np.zeros(wmax, np.bool_)
+    _forward_rows(c, lo, hi, off, sc, ob, pen, hx, 0, n, prev, pst, out, 0, rowmin)
+
+
+@njit(cache=True)
+def _forward_rows(c, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, out, base, rowmin):
+    # Rows i0 .. i1-1 of _forward, continuing from the state of row i0-1: prev (float64
+    # accumulated costs, row i0-1's cells first) and pst (those cells' best is a start), both
+    # of length >= the widest row and updated in place to row i1-1's state.  Row i is read
+    # at c[off[i] - base ...] and written at out[off[i] - base ...] (block buffers when
+    # base = off[i0]); rowmin is indexed by the global row.
+    wmax = prev.shape[0]
+    cur = np.full(wmax, np.inf)
     cst = np.zeros(wmax, np.bool_)
-    for i in range(n):
+    for i in range(i0, i1):
         L = lo[i]
         w = hi[i] - L + 1
         for k in range(w):
             j = L + k
-            cc = np.float64(c[off[i] + k])
+            cc = np.float64(c[off[i] - base + k])
             best = np.inf
             isst = False
             if i > 0:
@@ -64,7 +75,7 @@ def _forward(c, lo, hi, off, sc, ob, pen, hx, out, rowmin):
                     isst = True
             cur[k] = cc + best
             cst[k] = isst
-        _store_row(cur, w, out, off[i], rowmin, i)
+        _store_row(cur, w, out, off[i] - base, rowmin, i)
         for k in range(w):
             prev[k] = cur[k]
             pst[k] = cst[k]
@@ -84,10 +95,21 @@ def _backward(c, lo, hi, off, ec, oe, pen, hx, m, out, rowmin):
     for i in range(n):
         wmax = max(wmax, hi[i] - lo[i] + 1)
     nxt = np.full(wmax, np.inf)
-    cur = np.full(wmax, np.inf)
     nst = np.zeros(wmax, np.bool_)
+    _backward_rows(c, lo, hi, off, ec, oe, pen, hx, m, 0, n, nxt, nst, out, 0, rowmin)
+
+
+@njit(cache=True)
+def _backward_rows(c, lo, hi, off, ec, oe, pen, hx, m, i0, i1, nxt, nst, out, base, rowmin):
+    # Rows i1-1 down to i0 of _backward, continuing from the state of row i1: nxt (float64
+    # suffix costs of row i1's cells) and nst (their best is an end), updated in place to
+    # row i0's state.  Row i is read at c[off[i] - base ...] (c must also hold row i1 when
+    # i1 < n) and written at out[off[i] - base ...]; rowmin is indexed by the global row.
+    n = lo.shape[0]
+    wmax = nxt.shape[0]
+    cur = np.full(wmax, np.inf)
     cst = np.zeros(wmax, np.bool_)
-    for i in range(n - 1, -1, -1):
+    for i in range(i1 - 1, i0 - 1, -1):
         L = lo[i]
         w = hi[i] - L + 1
         for k in range(w - 1, -1, -1):
@@ -98,15 +120,15 @@ def _backward(c, lo, hi, off, ec, oe, pen, hx, m, out, rowmin):
                 nlo = lo[i + 1]
                 nhi = hi[i + 1]
                 if nlo <= j + 1 <= nhi:
-                    v = nxt[j + 1 - nlo] + np.float64(c[off[i + 1] + j + 1 - nlo])
+                    v = nxt[j + 1 - nlo] + np.float64(c[off[i + 1] - base + j + 1 - nlo])
                     if v < best:
                         best = v
                 if nlo <= j <= nhi and not (oe and j == m - 1 and nst[j - nlo]):
-                    v = nxt[j - nlo] + pen + np.float64(c[off[i + 1] + j - nlo])
+                    v = nxt[j - nlo] + pen + np.float64(c[off[i + 1] - base + j - nlo])
                     if v < best:
                         best = v
             if k < w - 1:
-                cc = np.float64(c[off[i] + k + 1])
+                cc = np.float64(c[off[i] - base + k + 1])
                 v = cur[k + 1] + pen + cc + (hx * cc if (hx != 0.0 and cc < np.inf) else 0.0)
                 if v < best:
                     best = v
@@ -117,7 +139,7 @@ def _backward(c, lo, hi, off, ec, oe, pen, hx, m, out, rowmin):
                     isend = True
             cur[k] = best
             cst[k] = isend
-        _store_row(cur, w, out, off[i], rowmin, i)
+        _store_row(cur, w, out, off[i] - base, rowmin, i)
         for k in range(w):
             nxt[k] = cur[k]
             nst[k] = cst[k]

@@ -29,7 +29,7 @@ import numpy as np
 from . import limits
 from .bvh_header import NeedMoreText, Scan, cross_check_with_bvhio, number, scan_header
 from ..errors import BVHError, SplicerWarning
-from ..model.motion import Motion, Skeleton
+from ..model.motion import Motion, Skeleton, _Owned
 
 __all__ = ["read_bvh"]
 
@@ -89,7 +89,7 @@ def read_bvh(path: str | os.PathLike) -> Motion:
         channels=tuple(scan.channels),
         end_sites=np.array(scan.end_sites, dtype=np.float64).reshape(-1, 3),
     )
-    return Motion(skeleton, values, scan.frame_time, source=spath)
+    return Motion(skeleton, _Owned(values), scan.frame_time, source=spath)  # taken over, not copied
 
 
 def _read_bytes(p: Path, spath: str):

@@ -17,13 +17,30 @@ import numpy as np
 
 from .rotations import euler_channels_deg, quat_from_euler, quat_hemisphere
 
-__all__ = ["Skeleton", "Motion", "preorder"]
+__all__ = ["Skeleton", "Motion", "preorder"]  # _Owned: for the package's own constructors
 
 _POS = ("Xposition", "Yposition", "Zposition")
 _ROT = ("Xrotation", "Yrotation", "Zrotation")
 
 
-def _readonly(a: np.ndarray, dtype=np.float64) -> np.ndarray:
+class _Owned:
+    """An array handed to a constructor by the code that just made it and keeps no reference:
+    the constructor takes it over (frozen in place) instead of copying it."""
+
+    __slots__ = ("array",)
+
+    def __init__(self, array: np.ndarray):
+        self.array = array
+
+
+def _readonly(a, dtype=np.float64) -> np.ndarray:
+    """A frozen (read-only) array of ``a``: a copy, except for an :class:`_Owned` array of
+    ``dtype`` that owns its C-contiguous data, which is frozen in place (no copy)."""
+    if isinstance(a, _Owned):
+        a = a.array
+        if isinstance(a, np.ndarray) and a.dtype == dtype and a.flags.owndata and a.flags.c_contiguous:
+            a.setflags(write=False)
+            return a
     a = np.array(a, dtype=dtype, copy=True)
     a.setflags(write=False)
     return a
@@ -222,11 +239,14 @@ class Motion:
     def _per_joint(self) -> dict:
         return {}
 
-    def joint_rotations(self, joints) -> np.ndarray:
+    def joint_rotations(self, joints, *, keep: bool = True) -> np.ndarray:
         """Local rotations of some joints, shape (T, K, 4), ``(w, x, y, z)``, hemisphere-continuous in time.
 
-        Converted from the channels on first use and kept; a joint without rotation channels
-        has the identity (missing axes of a joint with fewer than three count as zero).
+        Converted from the channels on first use and, with ``keep`` (the default), kept for
+        the next call (32 bytes per frame and joint, until :meth:`forget_rotations`); with
+        ``keep=False`` a joint not kept yet is converted for this call only.  A joint without
+        rotation channels has the identity (missing axes of a joint with fewer than three
+        count as zero).
         """
         sk = self.skeleton
         out = np.empty((self.n_frames, len(joints), 4))
@@ -240,10 +260,16 @@ class Motion:
                 else:
                     q = np.zeros((self.n_frames, 4))
                     q[:, 0] = 1.0
-                q.setflags(write=False)
-                self._per_joint[key] = q
+                if keep:
+                    q.setflags(write=False)
+                    self._per_joint[key] = q
             out[:, k] = q
         return out
+
+    def forget_rotations(self) -> None:
+        """Drop the per-joint rotations :meth:`joint_rotations` kept (memory only: the values are
+        converted again when asked for; the motion itself does not change)."""
+        self._per_joint.clear()
 
     def joint_translations(self, joints) -> np.ndarray:
         """Local translations of some joints, shape (T, K, 3), file units (the rest offset where
@@ -271,7 +297,14 @@ class Motion:
 
     # -- operations (return new objects) ----------------------------------------------------
     def with_channels(self, channels: np.ndarray) -> "Motion":
+        """A new motion with these channel values (copied), same skeleton, rate and source."""
         return Motion(self.skeleton, channels, self.frame_time, self.source)
+
+    def frames(self, index) -> "Motion":
+        """The frames ``index`` (an integer array, any order, repeats allowed), as a new motion;
+        the gathered channels are taken over, not copied a second time."""
+        ch = self.channels[np.asarray(index, dtype=np.int64)]
+        return Motion(self.skeleton, _Owned(ch), self.frame_time, self.source)
 
     def with_rotations(self, joints, rotations: np.ndarray) -> "Motion":
         """A new motion whose joints ``joints`` have local rotations ``rotations``.
@@ -296,7 +329,7 @@ class Motion:
             if len(cols) != 3:
                 raise ValueError(f"joint {sk.names[j]!r} has {len(cols)} rotation channels; 3 are needed to set a rotation")
             ch[:, cols] = euler_channels_deg(rotations[:, k], sk.rotation_order(j))
-        return self.with_channels(ch)
+        return Motion(sk, _Owned(ch), self.frame_time, self.source)
 
     def with_translations(self, joint: int, xyz: np.ndarray) -> "Motion":
         """A new motion whose joint ``joint`` (which has position channels) is at ``xyz`` (T, 3)."""
@@ -305,7 +338,7 @@ class Motion:
             raise ValueError(f"joint {self.skeleton.names[joint]!r} has no position channels")
         ch = np.array(self.channels)
         ch[:, cols] = xyz
-        return self.with_channels(ch)
+        return Motion(self.skeleton, _Owned(ch), self.frame_time, self.source)
 
     def slice(self, start: int, stop: int) -> "Motion":
         """Frames ``start`` (inclusive) to ``stop`` (exclusive)."""

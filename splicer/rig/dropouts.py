@@ -49,6 +49,8 @@ ZERO_ROW_ATOL = 1e-4
 
 KINDS = ("zero_row", "nan", "frozen", "jump")
 
+_ROWS = 65536  # frames per block of the zero-row test
+
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """Inclusive ``(first, last)`` of each run of True in a 1-D boolean array."""
@@ -96,7 +98,9 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
     if T < 2:
         return out
     finite = np.isfinite(ch)
-    zero = np.all(np.abs(ch) <= ZERO_ROW_ATOL, axis=1)
+    zero = np.empty(T, dtype=bool)
+    for a in range(0, T, _ROWS):  # in row blocks: no (T, C) float64 temporary of |channels|
+        zero[a:a + _ROWS] = np.all(np.abs(ch[a:a + _ROWS]) <= ZERO_ROW_ATOL, axis=1)
     if zero.any() and not zero.all():
         out[-1] = {"zero_row": zero}
     # NaN / inf
@@ -116,8 +120,8 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         if j not in quats:
             if any_unusable or len(sk.rotation_columns(j)) != 3:
                 quats[j] = _quats(motion, clean, j)
-            else:  # the motion's own (cached) rotations, which the splice reuses afterwards
-                quats[j] = motion.joint_rotations([j])[:, 0]
+            else:  # converted for this check only (a long take's rotations are not kept)
+                quats[j] = motion.joint_rotations([j], keep=False)[:, 0]
         return quats[j]
 
     # frozen: exact repeats, the rest of the hand moving, ending in a jump or at the end
@@ -171,6 +175,7 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         if good.size < 3:
             continue
         q = joint_quats(j)
+        quats.pop(j, None)  # the last use of this joint's rotations: one joint's at a time
         if q is None:
             continue
         qg = q if good.size == T else quat_hemisphere(q[good], axis=0)

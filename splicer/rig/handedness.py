@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import SplicerError
 from .handgeom import hand_frame, hand_length, hand_points
 from ..model.kinematics import rest_positions
-from ..model.motion import Motion, Skeleton
+from ..model.motion import Motion, Skeleton, _Owned
 from .roles import ArmRoles, Roles
 from ..transfer.sanity import finger_angles
 
@@ -148,7 +148,7 @@ def mirror_motion(motion: Motion, axis: int) -> Motion:
             elif c[0] != letter:
                 ch[:, o + k] *= -1.0
     new_sk = Skeleton(sk.names, sk.parents, sk.offsets * flip, sk.channels, sk.end_sites * flip)
-    return Motion(new_sk, ch, motion.frame_time, motion.source)
+    return Motion(new_sk, _Owned(ch), motion.frame_time, motion.source)
 
 
 def resolve_handedness(body: Motion, broles: Roles, hands: Motion, hroles: Roles, sides, *, mode: str = "auto",

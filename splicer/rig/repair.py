@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SplicerError
-from ..model.motion import Motion
+from ..model.motion import Motion, _Owned
 from ..model.rotations import euler_from_quat, quat_conj, quat_mul, quat_slerp
 # the detection, re-exported: these names were defined here before the split
 from .dropouts import (FROZEN_EXIT_RATIO, FROZEN_MIN_FRAMES, FROZEN_MIN_MOVING, FROZEN_MIN_S, KINDS,  # noqa: F401
@@ -211,7 +211,7 @@ def repair_motion(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX_F
                 for a, b in _runs(kinds[kind]):
                     repairs.append(Repair(sk.names[j], a, b, kind, method_of(j, a, b)))
     repairs.sort(key=lambda r: (r.first, r.last, r.joint != "*", sk.names.index(r.joint) if r.joint != "*" else -1))
-    return motion.with_channels(ch), repairs
+    return Motion(sk, _Owned(ch), motion.frame_time, motion.source), repairs
 
 
 def repairs_summary(repairs: list[Repair], source: str, *, limit: int = 6) -> str:

@@ -75,7 +75,7 @@ def _sampled(motion: Motion) -> Motion:
     if T <= _MAX_FRAMES:
         return motion
     idx = np.unique(np.linspace(0, T - 1, _MAX_FRAMES).round().astype(np.int64))
-    return motion.with_channels(motion.channels[idx])
+    return motion.frames(idx)
 
 
 def _vote(v: np.ndarray) -> tuple[int, int, float]:

@@ -88,5 +88,8 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     # --- end issue 14 ---
     pins = pins_from_config(inputs.config, side, inputs.spaces)
     out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real)
+    if side == rig.sides[-1]:  # the arm chains' rotations (the sides share the root and spine): not needed again
+        bm.forget_rotations()
+        hm.forget_rotations()
     log.tick("markers")
     return out

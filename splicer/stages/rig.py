@@ -109,6 +109,8 @@ def condition_hands(inputs: Inputs, rig: Rig, opts: SpliceOptions, log: Log | No
     mode = opts.mirror_hands or inputs.config.mirror_hands or "auto"
     log.progress("checks: handedness", 0.5)
     hm, handedness = resolve_handedness(inputs.body, rig.body, hm, rig.hands, rig.sides, mode=mode, note=log.note)
+    for m in (inputs.body, inputs.hands, hm):  # the checks' per-joint rotations (all hand joints): not kept
+        m.forget_rotations()
     log.tick("checks")
     return Conditioned(replace(inputs, hands=hm),
                        {"handedness": handedness, "hands_repairs": [r.as_dict() for r in repairs]})

@@ -86,7 +86,8 @@ def check_fingers(transfer: Transfer, side: str, inputs: Inputs, rig: Rig, tm: n
         src_read = "left" if src_read == "right" else "right"
     shown = np.isfinite(tm)
     frames = np.clip(np.round(tm[shown]).astype(np.int64), 0, hm.n_frames - 1)
-    src_san = finger_sanity(hm.with_channels(hm.channels[frames]), harm, +1 if src_read == "right" else -1)
+    src_san = finger_sanity(hm.frames(frames), harm, +1 if src_read == "right" else -1)
+    transfer.motion.forget_rotations()  # the output's hand joints, converted for the check only
     for w in sanity_warnings(san, f"{side} side, output", src_san):
         log.note(w)
     if transfer.joints:
@@ -134,7 +135,7 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
         fmap = FingerMap(fmap.body + (barm.wrist,), fmap.hands + ((harm.wrist,),), fmap.conj, fmap.bones)
     sub = sorted({j for g in fmap.hands for j in g})
     local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj, fmap.bones)
-    hq = hm.joint_rotations(sub)
+    hq = hm.joint_rotations(sub, keep=False)  # the hands take's rotations are not kept (long takes)
     covered = np.flatnonzero(np.isfinite(tm))
     tm = np.interp(np.arange(len(tm)), covered, tm[covered])  # uncovered frames: the nearest covered one
     if opts.merge == "timemap":
@@ -155,7 +156,7 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
         carried = carried_rotations(q, local)
         if alignment.covered is not None:  # uncovered body frames keep the body's own rotations
             w = coverage_weights(len(tm), alignment.covered, window=int(round(opts.uncovered_blend_s * bm.fps)))
-            carried = quat_slerp(out.joint_rotations(list(fmap.body)), carried, w[:, None])
+            carried = quat_slerp(out.joint_rotations(list(fmap.body), keep=False), carried, w[:, None])
         out = out.with_rotations(list(fmap.body), carried)
     else:
         log.note(f"{side} side: no finger joints could be paired between body and hands")

@@ -20,7 +20,7 @@ import numpy as np
 from ..rig.handgeom import finger_anchors, forearm_length, same_anatomical_joint
 from ..rig.handgeom import hand_frame as _robust_hand_frame
 from ..model.kinematics import rest_positions
-from ..model.motion import Motion, Skeleton, preorder
+from ..model.motion import Motion, Skeleton, _Owned, preorder
 from ..rig.roles import FINGERS, ArmRoles
 from ..model.rotations import quat_angle_deg, quat_between, quat_conj, quat_from_matrix, quat_mul, quat_rotate, quat_to_matrix
 
@@ -247,7 +247,7 @@ def graft_fingers(body: Motion, body_arm: ArmRoles, hands_sk: Skeleton, hands_ar
             cols.append(body.channels[:, old_off[o]:old_off[o + 1]])
         else:
             cols.append(np.zeros((T, len(channels[o]))))
-    motion = Motion(new_sk, np.concatenate(cols, axis=1), body.frame_time, body.source)
+    motion = Motion(new_sk, _Owned(np.concatenate(cols, axis=1)), body.frame_time, body.source)
     remap = {hj: pos[new_index[hj]] for hj in sub}
     fingers = {f: tuple(remap[j] for j in chain) for f, chain in hands_arm.fingers.items()}
     arm = ArmRoles(body_arm.side, pos[body_arm.wrist],

@@ -42,7 +42,7 @@ from ..model.motion import Motion
 from ..rig.roles import FINGERS, ArmRoles
 from ..model.rotations import quat_rotate
 
-__all__ = ["RANGES_DEG", "HYPEREXTENSION_DEG", "RANGE_SLACK_DEG", "FingerAngles", "finger_angles",
+__all__ = ["RANGES_DEG", "HYPEREXTENSION_DEG", "RANGE_SLACK_DEG", "CHUNK_FRAMES", "FingerAngles", "finger_angles",
            "finger_sanity", "sanity_warnings"]
 
 #: anatomical ranges, degrees (extension negative), AAOS 1965 (see the module docstring)
@@ -58,6 +58,10 @@ RANGE_SLACK_DEG = 10.0
 #: warning thresholds: share of frames
 WARN_BACKWARD = 0.10
 WARN_OUT_OF_RANGE = 0.25
+
+#: :func:`finger_angles` works on this many frames at a time (about 60 MB of world transforms
+#: for a 25-joint hand)
+CHUNK_FRAMES = 16384
 
 _FINGER_JOINTS = ("MCP", "PIP", "DIP")
 _THUMB_JOINTS = ("CMC", "MCP", "IP")
@@ -135,7 +139,24 @@ def finger_angles(motion: Motion, arm: ArmRoles, chirality: int) -> FingerAngles
     -------
     FingerAngles
         Joints named ``MCP, PIP, DIP`` (thumb ``CMC, MCP, IP``), as many as the chain has.
+
+    Notes
+    -----
+    Computed over :data:`CHUNK_FRAMES` frames at a time (every angle depends on its own frame
+    only), so the world transforms of the hand's joints never exist for a whole long take:
+    memory O(chunk x joints) plus the (T,) angles.
     """
+    T = motion.n_frames
+    if T <= CHUNK_FRAMES:
+        return _finger_angles(motion, arm, chirality)
+    parts = [_finger_angles(motion.slice(a, min(a + CHUNK_FRAMES, T)), arm, chirality).angles
+             for a in range(0, T, CHUNK_FRAMES)]
+    return FingerAngles({f: {name: np.concatenate([p[f][name] for p in parts]) for name in ang}
+                         for f, ang in parts[0].items()}, int(chirality))
+
+
+def _finger_angles(motion: Motion, arm: ArmRoles, chirality: int) -> FingerAngles:
+    """:func:`finger_angles` of all frames at once."""
     sk = motion.skeleton
     rest = rest_positions(sk)
     frame = hand_frame(sk, arm)

@@ -225,16 +225,20 @@ def test_temperature_is_per_second_of_body_time(monkeypatch):
     seen = []
     real = P.expected_frames
 
-    def spy(p, *, temperature, radius):
+    def spy(p, *, temperature, radius, progress=None):
         seen.append((temperature, radius))
-        return real(p, temperature=temperature, radius=radius)
+        return real(p, temperature=temperature, radius=radius, progress=progress)
 
     monkeypatch.setattr(P, "expected_frames", spy)
     root = Path(__file__).resolve().parents[1] / "motions"
     body, hands = read_bvh(root / "sample_body.bvh"), read_bvh(root / "sample_hands.bvh")
     assert body.fps == pytest.approx(30.0)
-    r = splice(body, hands, side="left", temperature_s=0.8, posterior_radius_s=2.0)
+    stages = []
+    r = splice(body, hands, side="left", temperature_s=0.8, posterior_radius_s=2.0,
+               progress=lambda stage, f: stages.append((stage, f)))
     assert seen == [(pytest.approx(24.0), 60)]
+    shown = [f for stage, f in stages if stage == "left: expected"]
+    assert shown and shown == sorted(shown) and 0 < shown[-1] <= 1  # the bar moves while the tube is costed
     assert r.sides["left"].alignment.posterior is not None
     seen.clear()
     r = splice(body, hands, side="left", temperature_s=0.0)

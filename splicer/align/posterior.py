@@ -235,7 +235,8 @@ def _rows_from_diagonals(s0, s1, s2, d0: int, d1: int, n: int) -> tuple[np.ndarr
 
 
 def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, radius: int,
-                   step_penalty: float = 0.0, horizontal_weight: float = 1.0, chunk_rows: int = 2048) -> Posterior:
+                   step_penalty: float = 0.0, horizontal_weight: float = 1.0, chunk_rows: int = 2048,
+                   progress=None) -> Posterior:
     """Expected column and its spread for every row, over the paths near ``path``.
 
     Parameters
@@ -252,6 +253,8 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
         Columns each side of the best path that alternative paths may use, >= 0.
     step_penalty, horizontal_weight : float
         The pass's own (:func:`splicer.align.dtw.dtw`).
+    progress : callable, optional
+        ``progress(fraction)`` as the tube's costs are computed (most of the time).
 
     Returns
     -------
@@ -277,6 +280,8 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
         for r in range(i1 - i0):
             w = widths[i0 + r]
             C[off[i0 + r]:off[i0 + r] + w] = block[r, :w]
+        if progress is not None:
+            progress(0.9 * (i1 - r0) / (r1 + 1 - r0))
     alpha = np.empty(C.shape[0], np.float32)
     shift = np.zeros(band.n)
     inv_t = 1.0 / float(temperature)
@@ -289,7 +294,7 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
     return Posterior(mean, std, float(temperature), radius)
 
 
-def expected_frames(p, *, temperature: float, radius: int) -> tuple[np.ndarray, Posterior | None]:
+def expected_frames(p, *, temperature: float, radius: int, progress=None) -> tuple[np.ndarray, Posterior | None]:
     """A pass's hands frame for each body frame: its expected path, or its best path.
 
     Parameters
@@ -301,6 +306,8 @@ def expected_frames(p, *, temperature: float, radius: int) -> tuple[np.ndarray, 
         0: the best path alone, each body frame's median hands frame (the paper).
     radius : int
         Columns each side of the best path, see :func:`path_posterior`.
+    progress : callable, optional
+        ``progress(fraction)``, see :func:`path_posterior`.
 
     Returns
     -------
@@ -312,5 +319,5 @@ def expected_frames(p, *, temperature: float, radius: int) -> tuple[np.ndarray, 
     if temperature == 0:
         return path_median(p.path, p.band.n), None
     post = path_posterior(p.local_cost, p.band, p.path, temperature=temperature, radius=radius,
-                          step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight)
+                          step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight, progress=progress)
     return post.mean, post

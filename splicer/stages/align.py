@@ -141,7 +141,8 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
             # the expected path over the near-best ones, not the best path alone: smooth in the input
             path = p1.path
             per_frame, posterior = expected_frames(p1, temperature=opts.temperature_s * bmk.fps,
-                                                   radius=int(round(opts.posterior_radius_s * bmk.fps)))
+                                                   radius=int(round(opts.posterior_radius_s * bmk.fps)),
+                                                   progress=lambda f: log.progress(f"{s}: expected", f))
             if used == "open":
                 covered = _cover_pins(tuple(int(v) for v in p1.covered), markers.pins, n)
                 if covered != tuple(p1.covered):

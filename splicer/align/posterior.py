@@ -287,6 +287,8 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
     inv_t = 1.0 / float(temperature)
     hx = float(horizontal_weight) - 1.0
     _forward(C, tube.lo, tube.hi, off, r0, r1, inv_t, float(step_penalty), hx, alpha, shift)
+    if progress is not None:
+        progress(0.95)
     nd = band.n + band.m
     s0, s1, s2 = np.zeros(nd), np.zeros(nd), np.zeros(nd)
     _backward(C, tube.lo, tube.hi, off, r0, r1, inv_t, float(step_penalty), hx, alpha, shift, s0, s1, s2)

@@ -201,11 +201,13 @@ def _install_handlers() -> dict:
     return old
 
 
-def _summary(result, out: Path, elapsed: float) -> str:
+def _summary(result, out: Path, elapsed: float, after: dict | None = None) -> str:
+    """The one-paragraph summary; ``after``: times of the steps after the splice (write, plot), seconds."""
     rep = result.report
     b, h = rep["body"], rep["hands"]
     sides = ", ".join(rep["sides"]) or "none"
-    stages = ", ".join(f"{k} {v:.2f}s" for k, v in rep["timings_s"].items() if k != "total")
+    times = {k: v for k, v in rep["timings_s"].items() if k != "total"} | dict(after or {})
+    stages = ", ".join(f"{k} {v:.2f}s" for k, v in times.items())
     joints = sum(len(s["joints"]) for s in rep["sides"].values())
     text = (f"Spliced {h['frames']} hand frames at {h['fps']:.4g} fps onto {b['frames']} body frames at "
             f"{b['fps']:.4g} fps; sides: {sides}; {joints} joints driven by the hands take. "
@@ -239,20 +241,25 @@ def main(argv=None) -> int:
                             mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on",
                             hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
                             offset_s=args.offset, noise_ratio=args.noise_ratio)
+        after = {}
         with tx:  # every output is staged, and appears only at tx.commit()
             progress("write", 0.0)
+            t1 = time.perf_counter()
             write_motion(result.motion, out)  # BVH or FBX by suffix
             if args.report:
                 _write_json(result.report.to_dict(), Path(args.report))
+            after["write"] = time.perf_counter() - t1
             if args.plot:
                 from .plot import plot_alignment
 
                 progress("plot", 0.5)
+                t1 = time.perf_counter()
                 plot_alignment(result, args.plot)
+                after["plot"] = time.perf_counter() - t1
             progress.close()
             tx.commit()
         if not args.quiet:
-            print(_summary(result, out, time.perf_counter() - t0))
+            print(_summary(result, out, time.perf_counter() - t0, after))
     except SplicerError as e:
         progress.close()
         print(f"splice: error: {one_line(str(e))}", file=sys.stderr)

@@ -28,6 +28,10 @@ def test_sample_end_to_end(tmp_path, capsys):
     code, stdout, err = _run([BODY, HANDS, "-o", out, "--constraints", SYNC, "--report", rep, "--plot", png], capsys)
     assert code == 0, err
     assert "Spliced 1985 hand frames" in stdout and "sides: left, right" in stdout
+    # the summary's time breakdown includes writing and the plot, after the splice's stages
+    import re
+
+    assert re.search(r"transfer \d+\.\d\ds, write \d+\.\d\ds, plot \d+\.\d\ds\)", stdout), stdout
     m = read_bvh(out)
     body = read_bvh(BODY)
     assert m.n_frames == body.n_frames and m.frame_time == body.frame_time

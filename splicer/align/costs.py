@@ -9,7 +9,8 @@ D1 (ALGORITHM.md section 4, paper eq. 6-7)::
     D1(i, j) = sum_r || sgn(v_r,i) - sgn(R(theta_ij) v'_r,j) ||^2 + || sgn(a_r,i) - sgn(R(theta_ij) a'_r,j) ||^2
 
 with a dead zone (``|x| < eps -> 0``) whose ``eps`` is a fraction of each motion's own
-RMS speed / acceleration, and ``theta_ij`` the rotation about the up axis that best
+RMS speed / acceleration; beyond the paper, past the dead zone the sign rises linearly to
++-1 over a ramp (another fraction of the RMS), so D1 is continuous in the input, and ``theta_ij`` the rotation about the up axis that best
 superimposes the 5-frame marker windows around ``i`` and ``j`` (Kovar, Gleicher & Pighin
 2002), or the difference of root headings.
 
@@ -58,6 +59,9 @@ class PhaseFeatures:
     heading : np.ndarray [shape=(T,)]
         Root heading, radians.
     up : int
+    ramp_vel, ramp_acc : float
+        Width of the sign's ramp past the dead zone (same units as ``eps_vel``, ``eps_acc``);
+        0: the paper's step.
     """
 
     vel: np.ndarray
@@ -142,8 +146,11 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         count as zero, so a hold reads as a hold and a confined hand capture is judged on
         the same relative scale as a free body capture.  Default: the splice's,
         :data:`splicer.defaults.DEAD_ZONE`.
+    sign_ramp : float
+        Past the dead zone, the sign rises linearly to +-1 over ``sign_ramp`` times the RMS
+        velocity (acceleration); 0 is the paper's step.  Default: the splice's,
+        :data:`splicer.defaults.SIGN_RAMP`.
     """
-    ramp = rampa = sign_ramp
     rel = markers.relative()
     vel, acc = _smooth_derivatives(rel, markers.fps, smooth_s)
     rms_v = float(np.sqrt(np.mean(vel**2))) if vel.size else 0.0
@@ -152,7 +159,7 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
     return PhaseFeatures(
         np.ascontiguousarray(vel), np.ascontiguousarray(acc), dead_zone * rms_v, dead_zone * rms_a, win,
         np.ascontiguousarray(markers.heading, dtype=np.float64), markers.up,
-        ramp * rms_v, rampa * rms_a,
+        sign_ramp * rms_v, sign_ramp * rms_a,
     )
 
 

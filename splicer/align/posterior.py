@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from .band import Band
+from .paths import path_median
 
 __all__ = ["Posterior", "expected_frames", "path_posterior", "tube_band"]
 
@@ -78,9 +79,7 @@ def tube_band(band: Band, path: np.ndarray, radius: int) -> Band:
     hi[r0:r1 + 1] = np.minimum(np.minimum(j[last] + radius, band.hi[r0:r1 + 1]), j[-1])
     lo[r0] = j[0]
     hi[r1] = j[-1]
-    # clipping to the start / end columns can leave a row disconnected from the next: the
-    # best path itself connects them, so reach back to it
-    lo = np.minimum(lo, np.concatenate([[lo[0]], hi[:-1] + 1]))
+    # every row holds the path's own cells, so consecutive rows connect (Band checks it)
     return Band(n=n, m=band.m, width=float(radius), lo=lo, hi=hi, constraints=band.constraints,
                 open_begin=True, open_end=True)
 
@@ -316,8 +315,6 @@ def expected_frames(p, *, temperature: float, radius: int, progress=None) -> tup
     (np.ndarray [shape=(n,)], Posterior or None)
         Non-decreasing where finite, NaN for the body frames the path does not cover.
     """
-    from .paths import path_median
-
     if temperature == 0:
         return path_median(p.path, p.band.n), None
     post = path_posterior(p.local_cost, p.band, p.path, temperature=temperature, radius=radius,

@@ -1,4 +1,4 @@
-"""The whole job as stages: load -> rig -> markers -> align -> time map -> transfer -> report.
+"""The whole job as stages: load -> rig -> markers -> align -> time map -> transfer -> cross-check -> report.
 
 :func:`splice` composes the stages of :mod:`splicer.stages` (one module each); each stage is
 a function with a typed, frozen result, usable on its own (notebooks, other tools), and
@@ -11,6 +11,7 @@ from __future__ import annotations
 from .options import SpliceOptions, resolve_options
 # the private names are used by splice-markers, pairing, the plot and the tests
 from .stages.align import Alignment, _choose_ends, _cover_pins, _pin_error, align_side  # noqa: F401
+from .stages.crosscheck import cross_check, hands_disagreement
 from .stages.load import Inputs, load_inputs
 from .stages.log import Log
 from .stages.markers import SideMarkers, _align_up, side_markers  # noqa: F401
@@ -20,7 +21,7 @@ from .stages.transfer import Transfer, check_fingers, time_map, transfer_side
 
 __all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
            "load_inputs", "find_rig", "condition_hands", "side_markers", "align_side", "time_map", "transfer_side",
-           "check_fingers", "build_report", "splice"]
+           "check_fingers", "cross_check", "hands_disagreement", "build_report", "splice"]
 
 
 
@@ -70,6 +71,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
         sanity = check_fingers(transfer, s, inputs, rig, tm, checked.report["handedness"], log)
         out = transfer.motion
         sides[s] = SideResult(s, tm, markers, alignment, transfer.joints, {**transfer.extra, **sanity})
+    sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
     report = build_report(inputs, opts, sides, log,
                           extra={**checked.report, "up": {k: u.as_dict() for k, u in rig.up.items()}})
     log.progress("done", 1.0)

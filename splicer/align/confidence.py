@@ -55,7 +55,7 @@ from .confidence_kernels import _backward, _backward_rows, _forward, _forward_ro
 from .paths import path_median
 from .dtw import CHUNK_CELLS, Band, end_costs
 
-__all__ = ["Confidence", "row_confidence", "pass_confidence", "through_costs", "CONFIDENCE_THRESHOLD"]
+__all__ = ["Confidence", "row_confidence", "pass_confidence", "posterior_confidence", "through_costs", "CONFIDENCE_THRESHOLD"]
 
 #: Default excess threshold, in units of the median local cost along the path.
 CONFIDENCE_THRESHOLD = 1.0
@@ -79,14 +79,17 @@ class Confidence:
     Attributes
     ----------
     spread_frames : np.ndarray [shape=(n,), dtype=float64]
-        Range of hands frames (at the alignment's rate) whose forced-path cost is within
-        ``threshold`` of the optimum; NaN where uncovered.
+        How far alignments almost as good as the chosen one spread, hands frames (at the
+        alignment's rate): the range whose forced-path cost is within ``threshold`` of the
+        optimum (:func:`row_confidence`), or the expected path's standard deviation
+        (:func:`posterior_confidence`); NaN where uncovered.
     est_error_s : np.ndarray [shape=(n,), dtype=float64]
         Estimated alignment error, seconds; NaN where uncovered.
     confidence : np.ndarray [shape=(n,), dtype=float64]
         In [0, 1]; 0 where uncovered, 0.5 at ``error_scale_s``.
     threshold : float
-        The excess threshold ``tau`` used, local-cost units.
+        The excess threshold ``tau`` used (:func:`row_confidence`) or the posterior's
+        temperature (:func:`posterior_confidence`), local-cost units.
     error_scale_s : float
         Seconds of estimated error at which confidence is 0.5.
     row_excess : np.ndarray [shape=(n,), dtype=float64] or None
@@ -103,6 +106,27 @@ class Confidence:
     threshold: float
     error_scale_s: float
     row_excess: np.ndarray | None = None
+    #: per body frame, seconds of hands time between this side's time map and the other
+    #: side's (:meth:`with_disagreement`); None when not compared
+    disagreement_s: np.ndarray | None = None
+
+    def with_disagreement(self, disagreement_s: np.ndarray) -> "Confidence":
+        """This confidence with the other side's verdict folded in.
+
+        Both hands come from one hands take, so their time maps should agree: where they
+        are ``d`` seconds apart, at least one of them is off, and the estimated error of
+        each becomes ``max(est_error_s, d)`` (frames where either side is uncovered, NaN in
+        ``disagreement_s``, keep their own estimate; uncovered frames stay NaN).
+        ``confidence`` is recomputed from it with the same ``error_scale_s``.
+        """
+        d = np.asarray(disagreement_s, dtype=np.float64)
+        if d.shape != self.est_error_s.shape:
+            raise ValueError(f"disagreement_s must have shape {self.est_error_s.shape}, got {d.shape}")
+        est = np.where(np.isfinite(self.est_error_s) & np.isfinite(d), np.fmax(self.est_error_s, d),
+                       self.est_error_s)
+        return Confidence(spread_frames=self.spread_frames, est_error_s=est,
+                          confidence=_confidence_of(est, self.error_scale_s), threshold=self.threshold,
+                          error_scale_s=self.error_scale_s, row_excess=self.row_excess, disagreement_s=d)
 
     def ambiguous(self) -> np.ndarray:
         """Boolean mask (n,): uncovered frames an alignment within ``threshold`` of the optimum
@@ -117,6 +141,12 @@ class Confidence:
         lim = self.error_scale_s if max_error_s is None else max_error_s
         e = self.est_error_s
         return np.isfinite(e) & (e > lim)
+
+
+def _confidence_of(est_error_s: np.ndarray, error_scale_s: float) -> np.ndarray:
+    """``1 / (1 + (est / scale)^2)``; 0 where the estimate is NaN (uncovered)."""
+    e = np.asarray(est_error_s, dtype=np.float64)
+    return np.where(np.isfinite(e), 1.0 / (1.0 + (np.nan_to_num(e) / error_scale_s) ** 2), 0.0)
 
 
 # ---------------------------------------------------------------- kernels (private, dumb)
@@ -349,7 +379,7 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
     _, tau = _blocked_row_stats(cost, band, off, path, sc, ec, ob, oe, pen, hw - 1.0, path_optimum, jc, spread, err,
                                 exmin)
     est = err / float(fps)
-    conf = np.where(np.isfinite(est), 1.0 / (1.0 + (np.nan_to_num(est) / error_scale_s) ** 2), 0.0)
+    conf = _confidence_of(est, error_scale_s)
     return Confidence(spread_frames=spread, est_error_s=est, confidence=conf, threshold=tau,
                       error_scale_s=float(error_scale_s), row_excess=np.maximum(exmin, 0.0))
 
@@ -388,3 +418,47 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
     return Confidence(spread_frames=put(conf.spread_frames, np.nan), est_error_s=put(conf.est_error_s, np.nan),
                       confidence=put(conf.confidence, 0.0), threshold=conf.threshold,
                       error_scale_s=conf.error_scale_s, row_excess=put(conf.row_excess, np.inf))
+
+
+def posterior_confidence(posterior, fps: float, *, error_scale_s: float = 0.1) -> Confidence:
+    """Per-body-frame confidence of an expected path from its own spread.
+
+    The expected path (:mod:`splicer.align.posterior`) weighs every path near the best one
+    by ``exp(-cost / temperature)``; its standard deviation per body frame is how far the
+    alignments that are almost as good as the chosen one wander: the estimated error.
+    Measured against the ground truth (README, *Accuracy*), it flags badly aligned frames
+    far more often than the cost landscape's threshold rule of :func:`row_confidence`, for
+    fewer well aligned ones.
+
+    Parameters
+    ----------
+    posterior : splicer.align.posterior.Posterior
+        Pass 1's expected path and its spread (frames of the pass's columns).
+    fps : float
+        Rate of those columns (the body rate for pass 1), frames per second.
+    error_scale_s : float
+        Estimated error (seconds) at which confidence is 0.5 (> 0).
+
+    Returns
+    -------
+    Confidence
+        ``spread_frames`` = the posterior's standard deviation (frames), ``est_error_s`` =
+        that in seconds, ``threshold`` = the posterior's temperature (cost units); NaN and
+        confidence 0 on rows the path does not cover.
+
+    Examples
+    --------
+    >>> from splicer.align.posterior import Posterior
+    >>> p = Posterior(mean=np.array([0.0, 1.0, np.nan]), std=np.array([0.0, 3.0, np.nan]), temperature=24.0, radius=60)
+    >>> c = posterior_confidence(p, 30.0)
+    >>> c.est_error_s.tolist()[:2], c.confidence.tolist()
+    ([0.0, 0.1], [1.0, 0.5, 0.0])
+    """
+    if not (fps > 0 and np.isfinite(fps)):
+        raise ValueError(f"fps must be positive and finite, got {fps!r}")
+    if not (error_scale_s > 0 and np.isfinite(error_scale_s)):
+        raise ValueError(f"error_scale_s must be positive and finite, got {error_scale_s!r}")
+    std = np.asarray(posterior.std, dtype=np.float64)
+    est = std / float(fps)
+    return Confidence(spread_frames=std, est_error_s=est, confidence=_confidence_of(est, error_scale_s),
+                      threshold=float(posterior.temperature), error_scale_s=float(error_scale_s))

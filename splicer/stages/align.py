@@ -87,7 +87,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     """
     from ..align.passes import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
     from ..align.band import band_frames
-    from ..align.confidence import pass_confidence
+    from ..align.confidence import pass_confidence, posterior_confidence
     from ..align.noise import matched_smoothing
     from ..align.posterior import expected_frames
 
@@ -176,7 +176,10 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     except SplicerError as e:
         raise type(e)(f"{s} side: {e}") from None
     conf = None
-    if p1 is not None:
+    if posterior is not None:  # the expected path's own spread (measured: README, Accuracy)
+        conf = posterior_confidence(posterior, fps)
+        log.tick("confidence")
+    elif p1 is not None:  # the best path alone (temperature 0): the cost landscape around it
         log.progress(f"{s}: confidence", 0.0)
         conf = pass_confidence(p1, fps)
         log.tick("confidence")

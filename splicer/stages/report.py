@@ -106,6 +106,8 @@ def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
         out["est_error_s"] = _round_list(conf.est_error_s, 4)
         low = frame_ranges(np.nan_to_num(conf.est_error_s, nan=0.0) > LOW_CONFIDENCE_S, min_gap=2)
         out["low_confidence"] = low
+        if conf.disagreement_s is not None:  # the other hand's time map (stages.crosscheck)
+            out["disagree"] = frame_ranges(np.nan_to_num(conf.disagreement_s, nan=0.0) > LOW_CONFIDENCE_S, min_gap=2)
         if low:
             fps = r.markers.spaces.body_fps
             worst = sorted(low, key=lambda ab: -float(np.nanmax(conf.est_error_s[ab[0]:ab[1] + 1])))[:3]

@@ -1,0 +1,93 @@
+"""Stage 6b, cross-check: the two hands' time maps checked against each other.
+
+Each side is aligned on its own arm (ALGORITHM.md section 0), but both hands come from one
+hands take: where their time maps disagree, at least one of them is off.  Measured on the
+ground-truth protocol (README, *Accuracy*), the disagreement is the strongest sign of a
+badly aligned frame the alignment has: it flags most frames whose true error exceeds
+0.1 s, and few whose error is below 0.05 s.  Each side's estimated error becomes the larger
+of its own (the expected path's spread) and the disagreement, so ``low_confidence`` and the
+summary name the stretches where the hands part; the output motion is not changed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from .log import Log
+
+__all__ = ["hands_disagreement", "cross_check"]
+
+#: disagreement above which the summary names the stretches, seconds (the low-confidence limit)
+DISAGREE_S = 0.1
+
+
+def hands_disagreement(hands_frame_a, hands_frame_b, hands_fps: float) -> np.ndarray:
+    """Per body frame, seconds of hands time between two sides' time maps.
+
+    Parameters
+    ----------
+    hands_frame_a, hands_frame_b : np.ndarray [shape=(n,)]
+        Hands-file frame (fractional; NaN where uncovered) of each body frame, per side.
+    hands_fps : float
+        Frame rate of the hands take, frames per second.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,)]
+        ``|a - b| / hands_fps``; NaN where either side is uncovered.
+
+    Examples
+    --------
+    >>> hands_disagreement(np.array([0.0, 12.0, np.nan]), np.array([0.0, 24.0, 5.0]), 120.0).tolist()
+    [0.0, 0.1, nan]
+    """
+    a = np.asarray(hands_frame_a, dtype=np.float64)
+    b = np.asarray(hands_frame_b, dtype=np.float64)
+    if a.shape != b.shape or a.ndim != 1:
+        raise ValueError(f"both time maps must have one shape (n,), got {a.shape} and {b.shape}")
+    if not (hands_fps > 0 and np.isfinite(hands_fps)):
+        raise ValueError(f"hands_fps must be positive and finite, got {hands_fps!r}")
+    return np.abs(a - b) / float(hands_fps)
+
+
+def cross_check(sides: dict, log: Log | None = None) -> dict:
+    """Fold the hands' disagreement into each side's confidence (two sides, both with one).
+
+    Parameters
+    ----------
+    sides : dict of str -> SideResult
+        The finished sides of a splice (:func:`splicer.pipeline.splice`).
+    log : Log, optional
+        Receives a summary note when the hands disagree by more than :data:`DISAGREE_S`.
+
+    Returns
+    -------
+    dict of str -> SideResult
+        The same sides; with two sides that both have a confidence, each alignment's
+        confidence is :meth:`~splicer.align.confidence.Confidence.with_disagreement` of the
+        other side's time map.  One side, or a side without a confidence: unchanged.
+    """
+    from ..transfer.timemap import frame_ranges
+
+    log = log or Log()
+    if len(sides) != 2 or any(r.alignment.confidence is None for r in sides.values()):
+        return dict(sides)
+    (sa, ra), (sb, rb) = sides.items()
+    fps = ra.markers.spaces.hands_fps
+    d = hands_disagreement(ra.hands_frame, rb.hands_frame, fps)
+    out = {}
+    for s, r in ((sa, ra), (sb, rb)):
+        conf = r.alignment.confidence.with_disagreement(d)
+        out[s] = replace(r, alignment=replace(r.alignment, confidence=conf))
+    apart = frame_ranges(np.nan_to_num(d, nan=0.0) > DISAGREE_S, min_gap=2)
+    if apart:
+        n = len(d)
+        worst = sorted(apart, key=lambda ab: -float(np.nanmax(d[ab[0]:ab[1] + 1])))[:3]
+        where = ", ".join(f"{a}-{b} (up to {np.nanmax(d[a:b + 1]):.2f} s)" for a, b in worst)
+        share = sum(b - a + 1 for a, b in apart) / n
+        log.note(f"the {sa} and {sb} hands' alignments disagree by more than {DISAGREE_S:g} s in "
+                 f"{100 * share:.0f}% of body frames ({where}): one of them is off there; both sides count "
+                 "those frames as low confidence")
+    return out

@@ -319,3 +319,25 @@ def test_guided_band_neighbour_rows_and_delta_by_hand():
     cp = np.array([(0, 0), (1, 0), (2, 1), (3, 2), (4, 9)])
     b = guided_band(cp, 2.0, 9, 20, 1.1)
     assert b.hi.tolist() == [4, 4, 6, 8, 8, 8, 19, 19, 19] and b.lo.tolist() == [0] * 9
+
+
+def test_pass1_guide_follows_an_earlier_path():
+    """A guide path (e.g. an open-ended pass 1 that ran corner to corner) replaces the diagonal:
+    the band of ``width`` is centred on it, the path inside is the same as in the wide band, and
+    a guide that misses a pin's window falls back to the diagonal band."""
+    from splicer.align.passes import pass1
+
+    body, hands, _ = _warped()
+    free = pass1(body, hands, width=20.0)
+    guided = pass1(body, hands, width=6.0, guide=free.path)
+    np.testing.assert_array_equal(guided.path, free.path)   # the best path lies inside its own neighbourhood
+    want = guided_band(free.path, 1.0, 90, 110, 6.0)
+    np.testing.assert_array_equal(guided.band.lo, want.lo)
+    np.testing.assert_array_equal(guided.band.hi, want.hi)
+    assert guided.band.max_row_width < free.band.max_row_width
+    # a guide far from a pin's window: the paper's diagonal band
+    far = np.stack([np.arange(90), np.minimum(np.arange(90) * 0 + np.arange(90) // 3, 109)], axis=1)
+    far[-1] = (89, 109)
+    pinned = pass1(body, hands, width=20.0, constraints=[Constraint(45, 60, 0)], guide=far)
+    np.testing.assert_array_equal(pinned.band.lo, make_band(90, 110, 20.0, [Constraint(45, 60, 0)]).lo)
+    assert pinned.path[pinned.path[:, 0] == 45, 1].tolist() == [60]

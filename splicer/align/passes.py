@@ -100,7 +100,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
-          horizontal_weight: float | None = None) -> PassResult:
+          horizontal_weight: float | None = None, guide: np.ndarray | None = None) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -148,6 +148,11 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     step_penalty : float
         Beyond the paper: D1 units added to every non-diagonal step, in every DTW of the pass
         (:func:`splicer.dtw.dtw`); 0 is the paper's recurrence.
+    guide : np.ndarray [shape=(K, 2)], optional
+        Fixed ends: a path at the full rate from an earlier pass (e.g. an open-ended pass 1
+        that found both corners, or the other hand's pass 1): the band of ``width`` follows
+        it instead of the diagonal (:func:`guided_band`), and no coarse pass is run.  A
+        time map far from uniform timing (local speed 0.33x-3x) leaves a diagonal band.
     horizontal_weight : float, optional
         Weight of the local cost of a cell entered by a ``(i, j-1)`` step (one more hands
         frame on the same body frame), in ``(0, 1]``.  Default: 1 (the paper) with fixed
@@ -175,7 +180,12 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
     n, m = body.n_frames, hands.n_frames
     notes: tuple = ()
-    if coarse_fps is not None and coarse_fps < body.fps:
+    if guide is not None:
+        try:
+            band = guided_band(np.asarray(guide, dtype=np.int64), 1.0, n, m, width, constraints)
+        except BandError:
+            band = make_band(n, m, width, constraints)  # the guide missed a pin's window: the paper's band
+    elif coarse_fps is not None and coarse_fps < body.fps:
         factor = body.fps / coarse_fps
         cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
         ccons = _coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)

@@ -65,7 +65,7 @@ def _pin_error(e: SplicerError, pins: tuple[Pin, ...], side: str) -> SplicerErro
 
 
 def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
-               offset_s: float | None = None) -> Alignment:
+               offset_s: float | None = None, guide: np.ndarray | None = None) -> Alignment:
     """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed, with a confidence.
 
     Parameters
@@ -79,6 +79,10 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         end, with a warning (:func:`_choose_ends`).
     offset_s : float, optional
         Open ends: body frame 0 shows hands time ``offset_s`` (a starting guess, e.g. timecode).
+    guide : np.ndarray [shape=(K, 2)], optional
+        Fixed ends: a pass-1 path (body frame, common hands frame) whose neighbourhood pass 1
+        searches instead of the diagonal's (:func:`splicer.align.passes.pass1`).  With
+        ``ends="auto"``, an open-ended pass 1 that found both corners guides the end-to-end one.
 
     Raises
     ------
@@ -107,7 +111,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
                  "tempo allowed for; a second performance or a jittery solve?): if the alignment is off, "
                  "try --noise-ratio 1.2")
 
-    def run_pass1(mode: str):
+    def run_pass1(mode: str, guide_path=None):
         open_ends = mode == "open"
         band1 = opts.band1 if opts.band1 is not None else (D.OPEN_BAND1 if open_ends else D.BAND1)
         w1 = band_frames(band1, n=n, fps=fps)
@@ -119,6 +123,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
                   uncovered_quantile=opts.uncovered_quantile,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
                   coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
+                  guide=None if open_ends else guide_path,
                   progress=lambda f: log.progress(f"{s}: pass 1", f))
         return p, w1, cons
 
@@ -128,12 +133,14 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     try:
         if opts.passes in ("pass1", "both"):
             log.progress(f"{s}: pass 1", 0.0)
-            p1, w1, cons = run_pass1(used)
+            p1, w1, cons = run_pass1(used, guide)
             if ends == "auto":
                 why = _choose_ends(p1, n, m, fps, markers.pins)
                 if why is not None:
                     used = "fixed"
-                    p1, w1, cons = run_pass1("fixed")
+                    # takes that start and end together: the open-ended path (corner to corner) guides
+                    # the band; an overlap too short to trust: the diagonal's band (the paper)
+                    p1, w1, cons = run_pass1("fixed", p1.path if why == _TOGETHER_WHY else guide)
                     if why.startswith("!"):
                         log.note(f"{s} side: {why[1:]}")
             for msg in p1.notes:
@@ -197,7 +204,8 @@ def agree_ends(aligned: dict, markers: dict, opts: SpliceOptions, log: Log | Non
     Both hands come from one hands take, so whether it starts and ends with the body is one
     question.  When ``ends="auto"`` let one side align end to end (its open-ended path found
     both corners, or an overlap too short to trust: :func:`_choose_ends`) and the other keep an
-    open-ended path, the open one is aligned again end to end.  Measured on the ground-truth
+    open-ended path, the open one is aligned again end to end, its band following the other
+    side's pass-1 path (both hands share one time map when all is well).  Measured on the ground-truth
     protocol (tuning seeds 0-3, README *Accuracy*): the sides differed in 2 of 60 runs (speed
     and imitation), and aligning both end to end cut those runs' mean error from 0.18 to
     0.05 s and from 3.4 to 1.4 s; the bundled sample's left side goes from 0.12 to 0.09 s.
@@ -226,13 +234,16 @@ def agree_ends(aligned: dict, markers: dict, opts: SpliceOptions, log: Log | Non
         if a.ends == "open":
             log.note(f"{s} side: the {' and '.join(fixed)} side's alignment runs end to end; both hands come from one "
                      "take, so this side is aligned end to end too (--ends open keeps its open ends)")
-            out[s] = align_side(markers[s], opts, log, ends="fixed", offset_s=offset_s)
+            out[s] = align_side(markers[s], opts, log, ends="fixed", offset_s=offset_s,
+                                guide=aligned[fixed[0]].pass1.path)
     return out
 
 
 #: ends="auto": an open-ended path starting and ending within this of the corners means the
 #: takes start and end together (seconds)
 _TOGETHER_S = 1.0
+#: _choose_ends' reason for aligning end to end when the open-ended path runs corner to corner
+_TOGETHER_WHY = "the takes start and end together"
 #: ends="auto": an overlap shorter than this share of what both takes allow is not trusted
 _PLAUSIBLE_SHARE = 0.5
 
@@ -253,7 +264,7 @@ def _choose_ends(p1, n: int, m: int, fps: float, pins) -> str | None:
     tol = _TOGETHER_S * fps
     (i0, j0), (i1, j1) = p1.path[0], p1.path[-1]
     if i0 <= tol and j0 <= tol and (n - 1 - i1) <= tol and (m - 1 - j1) <= tol:
-        return "the takes start and end together"
+        return _TOGETHER_WHY
     a, b = p1.covered
     comparable = 2.0 / 3.0 <= m / n <= 1.5  # end to end needs no more than the protocol's 0.5x-2x local speeds
     if not pins and comparable and (b - a + 1) < _PLAUSIBLE_SHARE * min(n, m):

@@ -21,6 +21,7 @@ import time
 import warnings
 from pathlib import Path
 
+from . import __version__
 from .io.atomic import Transaction, write_text_atomic
 from .errors import SplicerError
 from .io.limits import one_line, shorten
@@ -106,6 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "sharing the hands BVH's timeline: the alignment uses them instead of virtual markers")
     p.add_argument("--body-markers", metavar="C3D", help="optical markers of the body session, likewise")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary (errors still go to stderr)")
+    p.add_argument("--version", action="version", version=f"%(prog)s (splicer) {__version__}")
     return p
 
 

@@ -8,6 +8,7 @@ costs no more than a short one."""
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -67,8 +68,8 @@ def _pins(ax, x, y, tol) -> None:
         ax.errorbar(x, y, yerr=np.stack([tol, tol]), fmt="o", color="orange", ms=4, capsize=3, lw=1.5)
 
 
-def _draw_pass(ax, pr, title, constraints=()):
-    img, rs, cs = band_image(pr)
+def _draw_pass(ax, pr, title, constraints=(), *, max_pixels: int = _MAX_PIXELS):
+    img, rs, cs = band_image(pr, max_pixels=max_pixels)
     n, m = pr.band.n, pr.band.m
     im = ax.imshow(img.T, origin="lower", aspect="auto", cmap="viridis", interpolation="nearest",
                    extent=(-0.5 * rs, (n - 1) + 0.5 * rs, -0.5 * cs, (m - 1) + 0.5 * cs))
@@ -77,7 +78,7 @@ def _draw_pass(ax, pr, title, constraints=()):
     ax.plot(i, pr.band.hi, color="white", lw=0.6, alpha=0.8, label="band")
     ax.plot(pr.path[:, 0], pr.path[:, 1], color="red", lw=1.2, label="path")
     _pins(ax, [c.x for c in constraints], [c.y for c in constraints], [c.tolerance for c in constraints])
-    ax.set_title(title, fontsize=9)
+    ax.set_title(title, fontsize=9, y=1.0)  # a fixed place: no measuring of tick labels to avoid
     ax.set_xlabel("body frame")
     ax.set_xlim(0, n - 1)
     ax.set_ylim(0, m - 1)
@@ -149,6 +150,8 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     pass_w = _CELL_W - _LEFT - _CBAR_GAP - _CBAR_W - _CBAR_LABELS
     map_left = _LEFT + 0.1  # four-digit hands frames
     map_w = _CELL_W - map_left - 0.2
+    # a band image of one sample per screen pixel (nearest-neighbour drawing shows no more), at most _MAX_PIXELS
+    px = min(_MAX_PIXELS, math.ceil(dpi * max(pass_w, _CELL_H - _BOTTOM - _TOP)))
 
     def pass_axes(row, col):
         ax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, _LEFT, pass_w))
@@ -167,7 +170,8 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         k = 0
         if s.pass1 is not None:
             ax, cax = pass_axes(row, k)
-            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, phase metric D1 (band {s.pass1.band.width:.0f} frames)", cons)
+            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, phase metric D1 (band {s.pass1.band.width:.0f} frames)", cons,
+                            max_pixels=px)
             ax.set_ylabel("hands frame (body rate)")
             colorbar(im, cax, "D1 (squared sign differences)")
             k += 1
@@ -175,7 +179,8 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             ax, cax = pass_axes(row, k)
             map1 = None if s.pass1 is None else hold_ends(path_median(s.pass1.path, n))
             c2 = cons if map1 is None else remap_constraints(cons, map1)
-            im = _draw_pass(ax, s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2)
+            im = _draw_pass(ax, s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2,
+                            max_pixels=px)
             ax.set_ylabel("warped hands frame" if s.pass1 is not None else "hands frame (body rate)")
             colorbar(im, cax, "D2 + departure penalty (rad)")
             k += 1
@@ -190,7 +195,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             _shade(ax, np.isfinite(conf.est_error_s) & (conf.est_error_s > LOW_CONFIDENCE_S), "tab:red",
                    f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
         _pins(ax, [p.body for p in s.pins], [p.hands for p in s.pins], [p.tolerance for p in s.pins])
-        ax.set_title(f"{s.side}: time map", fontsize=9)
+        ax.set_title(f"{s.side}: time map", fontsize=9, y=1.0)
         ax.set_xlabel("body frame")
         ax.set_ylabel("hands-file frame")
         ax.legend(fontsize=7, loc="upper left")

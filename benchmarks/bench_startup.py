@@ -1,7 +1,8 @@
 """Start-up of the ``splice`` command on the bundled sample (issue 12).
 
-Wall times of fresh processes, min over ``--repeat`` runs (the machine is shared: the minimum is
-the least disturbed run), with numba's cache warm unless ``--first`` is given:
+Wall and CPU (user + system) times of fresh processes, min over ``--repeat`` runs (the machine is
+shared: the minimum is the least disturbed run), with numba's cache warm and splicer's byte code
+compiled first (as an installed package has it):
 
 * ``import numpy``: ``python -c "import numpy"``, the yardstick (target: warm run <= 5x this);
 * ``--help``, ``--version``: the parser alone;
@@ -11,7 +12,7 @@ the least disturbed run), with numba's cache warm unless ``--first`` is given:
 * ``first run`` (``--first``): the warm-run command with ``NUMBA_CACHE_DIR`` set to a new, empty
   folder, so every kernel the run calls is compiled (once; min over ``--first-repeat`` runs).
 
-Run from the repository root: ``python benchmarks/bench_startup.py [--repeat 7] [--first]``.
+Run from the repository root: ``python benchmarks/bench_startup.py [--repeat 10] [--first]``.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ def _sub(a, b):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--repeat", type=int, default=10)
     ap.add_argument("--first", action="store_true", help="also time a first run in a new numba cache")
     ap.add_argument("--first-repeat", type=int, default=2)
     args = ap.parse_args(argv)

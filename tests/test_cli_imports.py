@@ -55,3 +55,13 @@ def test_a_run_without_plot_imports_no_plotting_no_dataframes_no_scipy(tmp_path)
     unwanted = {"matplotlib", "PIL", "pandas", "scipy", "dask", "distributed", "bpy"}
     assert not mods & unwanted, sorted(mods & unwanted)
     assert "numba" in mods  # the kernels ran: the check above is not vacuous
+
+
+def test_numba_started_without_scipy_leaves_scipy_importable(tmp_path):
+    # gap filling imports scipy.interpolate after the command has started numba without scipy
+    code = ("import sys; from splicer.cli import _start_numba_without_scipy; _start_numba_without_scipy(); "
+            "assert 'numba' in sys.modules and 'scipy' not in sys.modules; "
+            "from scipy.interpolate import CubicSpline; print(float(CubicSpline([0, 1, 2], [0, 1, 0])(0.5)))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path, check=True)
+    assert out.stdout.strip() == "0.75"

@@ -45,10 +45,13 @@ __version__ = "0.2.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)
-from .model.motion import Motion, Skeleton  # noqa: E402
+
+# numpy, numba, bvhio, YAML, matplotlib: none is imported by ``import splicer`` (``splice --help``
+# and ``--version`` stay as cheap as Python itself; tests/test_cli_imports.py checks it).
 
 #: public name -> module that defines it (loaded on first access)
 _LAZY = {
+    "Motion": ".model.motion", "Skeleton": ".model.motion",
     "read_bvh": ".io.bvh", "write_bvh": ".io.bvh",
     "splice": ".pipeline", "SpliceResult": ".pipeline", "SideResult": ".pipeline",
     "load_inputs": ".pipeline", "find_rig": ".pipeline", "condition_hands": ".pipeline", "check_fingers": ".pipeline", "side_markers": ".pipeline", "align_side": ".pipeline",

@@ -8,6 +8,7 @@ costs no more than a short one."""
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -52,8 +53,23 @@ def band_image(pass_result, *, max_pixels: int = _MAX_PIXELS) -> tuple[np.ndarra
     return img, (n - 1) / max(len(rows) - 1, 1), (m - 1) / max(len(cols) - 1, 1)
 
 
-def _draw_pass(ax, pr, title, constraints=()):
-    img, rs, cs = band_image(pr)
+def _few_ticks(ax, nbins: int = 5) -> None:
+    """At most ``nbins`` + 1 major ticks a side, no minor ones: tick labels are most of a figure's drawing time."""
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(nbins, integer=True))
+    ax.yaxis.set_major_locator(MaxNLocator(nbins, integer=True))
+    ax.minorticks_off()
+
+
+def _pins(ax, x, y, tol) -> None:
+    """Matching frames pinned by the animator: one ``errorbar`` (one set of artists) for all of them."""
+    if len(x):
+        ax.errorbar(x, y, yerr=np.stack([tol, tol]), fmt="o", color="orange", ms=4, capsize=3, lw=1.5)
+
+
+def _draw_pass(ax, pr, title, constraints=(), *, max_pixels: int = _MAX_PIXELS):
+    img, rs, cs = band_image(pr, max_pixels=max_pixels)
     n, m = pr.band.n, pr.band.m
     im = ax.imshow(img.T, origin="lower", aspect="auto", cmap="viridis", interpolation="nearest",
                    extent=(-0.5 * rs, (n - 1) + 0.5 * rs, -0.5 * cs, (m - 1) + 0.5 * cs))
@@ -61,26 +77,52 @@ def _draw_pass(ax, pr, title, constraints=()):
     ax.plot(i, pr.band.lo, color="white", lw=0.6, alpha=0.8)
     ax.plot(i, pr.band.hi, color="white", lw=0.6, alpha=0.8, label="band")
     ax.plot(pr.path[:, 0], pr.path[:, 1], color="red", lw=1.2, label="path")
-    for c in constraints:
-        ax.errorbar([c.x], [c.y], yerr=[[c.tolerance], [c.tolerance]], fmt="o", color="orange",
-                    ms=4, capsize=3, lw=1.5)
-    ax.set_title(title, fontsize=9)
+    _pins(ax, [c.x for c in constraints], [c.y for c in constraints], [c.tolerance for c in constraints])
+    ax.set_title(title, fontsize=9, y=1.0)  # a fixed place: no measuring of tick labels to avoid
     ax.set_xlabel("body frame")
     ax.set_xlim(0, n - 1)
     ax.set_ylim(0, m - 1)
+    _few_ticks(ax)
     return im
 
 
 def _shade(ax, mask: np.ndarray, color: str, label: str) -> None:
-    """Shade the runs of ``mask`` (body frames) on a time-map axis, one legend entry."""
+    """Shade the runs of ``mask`` (body frames, each ``[i - 0.5, i + 0.5]``) over the axis' height.
+
+    One collection for all runs (one legend entry, one artist to draw however many runs there are).
+    """
+    from matplotlib.collections import PolyCollection
+
     from .transfer.timemap import frame_ranges
 
-    for k, (a, b) in enumerate(frame_ranges(mask)):
-        ax.axvspan(a - 0.5, b + 0.5, color=color, alpha=0.2, lw=0, label=label if k == 0 else None)
+    ranges = frame_ranges(mask)
+    if not ranges:
+        return
+    verts = [[(a - 0.5, 0.0), (b + 0.5, 0.0), (b + 0.5, 1.0), (a - 0.5, 1.0)] for a, b in ranges]
+    ax.add_collection(PolyCollection(verts, facecolors=color, alpha=0.2, linewidths=0, label=label,
+                                     transform=ax.get_xaxis_transform()), autolim=False)
+
+
+# Layout in inches of one side's cell (4.2 x 3.6 in): fixed rectangles instead of tight_layout, which
+# measures every tick label of every axis (0.3 s on the sample) to find what these constants say.
+_CELL_W, _CELL_H = 4.2, 3.6
+_LEFT, _BOTTOM, _TOP = 0.62, 0.5, 0.3  # y tick labels and label; x tick labels and label; title
+_CBAR_GAP, _CBAR_W, _CBAR_LABELS = 0.06, 0.12, 0.78  # colorbar: gap, bar, its tick labels and label
+
+
+def _rect(fig_w, fig_h, row, col, nrows, left, width):
+    """``[left, bottom, width, height]`` in figure fractions of an axis ``left`` in from its cell's left edge."""
+    x0 = col * _CELL_W + left
+    y0 = (nrows - 1 - row) * _CELL_H + _BOTTOM
+    return [x0 / fig_w, y0 / fig_h, width / fig_w, (_CELL_H - _BOTTOM - _TOP) / fig_h]
 
 
 def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     """Write a PNG of every side's passes (atomically: a temporary file, then rename).
+
+    One row per side: each pass's local costs inside its band (one image each) with the band's
+    edges, the chosen path and the pins, then the time map with the frames that have no hands
+    material and the low-confidence frames shaded.
 
     Parameters
     ----------
@@ -92,6 +134,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     from .align.passes import hold_ends, path_median, remap_constraints
     from .pipeline import LOW_CONFIDENCE_S
@@ -100,26 +143,48 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     if not sides:
         raise SplicerError("nothing to plot: no side was aligned")
     ncols = max(sum(p is not None for p in (s.pass1, s.pass2)) for s in sides) + 1
-    fig = Figure(figsize=(4.2 * ncols, 3.6 * len(sides)))
+    nrows = len(sides)
+    fig_w, fig_h = _CELL_W * ncols, _CELL_H * nrows
+    fig = Figure(figsize=(fig_w, fig_h))
     FigureCanvasAgg(fig)
-    axes = fig.subplots(len(sides), ncols, squeeze=False)
-    for row, s in zip(axes, sides):
+    pass_w = _CELL_W - _LEFT - _CBAR_GAP - _CBAR_W - _CBAR_LABELS
+    map_left = _LEFT + 0.1  # four-digit hands frames
+    map_w = _CELL_W - map_left - 0.2
+    # a band image of one sample per screen pixel (nearest-neighbour drawing shows no more), at most _MAX_PIXELS
+    px = min(_MAX_PIXELS, math.ceil(dpi * max(pass_w, _CELL_H - _BOTTOM - _TOP)))
+
+    def pass_axes(row, col):
+        ax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, _LEFT, pass_w))
+        cax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, _LEFT + pass_w + _CBAR_GAP, _CBAR_W))
+        return ax, cax
+
+    def colorbar(im, cax, label):
+        cb = fig.colorbar(im, cax=cax)
+        cb.set_label(label, fontsize=8)
+        cax.yaxis.set_major_locator(MaxNLocator(5))
+        cax.minorticks_off()
+
+    for row, s in enumerate(sides):
         n = len(s.hands_frame)
         cons = s.alignment.constraints
         k = 0
         if s.pass1 is not None:
-            im = _draw_pass(row[k], s.pass1, f"{s.side}: pass 1, phase metric D1 (band {s.pass1.band.width:.0f} frames)", cons)
-            row[k].set_ylabel("hands frame (body rate)")
-            fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02).set_label("D1 (squared sign differences)", fontsize=8)
+            ax, cax = pass_axes(row, k)
+            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, phase metric D1 (band {s.pass1.band.width:.0f} frames)", cons,
+                            max_pixels=px)
+            ax.set_ylabel("hands frame (body rate)")
+            colorbar(im, cax, "D1 (squared sign differences)")
             k += 1
         if s.pass2 is not None:
+            ax, cax = pass_axes(row, k)
             map1 = None if s.pass1 is None else hold_ends(path_median(s.pass1.path, n))
             c2 = cons if map1 is None else remap_constraints(cons, map1)
-            im = _draw_pass(row[k], s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2)
-            row[k].set_ylabel("warped hands frame" if s.pass1 is not None else "hands frame (body rate)")
-            fig.colorbar(im, ax=row[k], fraction=0.046, pad=0.02).set_label("D2 + departure penalty (rad)", fontsize=8)
+            im = _draw_pass(ax, s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2,
+                            max_pixels=px)
+            ax.set_ylabel("warped hands frame" if s.pass1 is not None else "hands frame (body rate)")
+            colorbar(im, cax, "D2 + departure penalty (rad)")
             k += 1
-        ax = row[k]
+        ax = fig.add_axes(_rect(fig_w, fig_h, row, ncols - 1, nrows, map_left, map_w))
         t = np.arange(n)
         ax.plot(t, s.hands_frame, color="black", lw=1.2, label="hands frame used")
         top = float(np.nanmax(s.hands_frame)) if np.isfinite(s.hands_frame).any() else 0.0
@@ -129,14 +194,11 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         if conf is not None:
             _shade(ax, np.isfinite(conf.est_error_s) & (conf.est_error_s > LOW_CONFIDENCE_S), "tab:red",
                    f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
-        for p in s.pins:
-            ax.errorbar([p.body], [p.hands], yerr=[[p.tolerance], [p.tolerance]], fmt="o", color="orange", ms=4, capsize=3)
-        ax.set_title(f"{s.side}: time map", fontsize=9)
+        _pins(ax, [p.body for p in s.pins], [p.hands for p in s.pins], [p.tolerance for p in s.pins])
+        ax.set_title(f"{s.side}: time map", fontsize=9, y=1.0)
         ax.set_xlabel("body frame")
         ax.set_ylabel("hands-file frame")
         ax.legend(fontsize=7, loc="upper left")
-        for extra in row[k + 1:]:
-            extra.axis("off")
-    fig.tight_layout()
+        _few_ticks(ax)
     dest = Path(path)
     write_atomic(dest, lambda f: fig.savefig(f, dpi=dpi, format="png"), what="plot")

@@ -276,7 +276,7 @@ def test_classifier_recognises_failures(monkeypatch, tmp_path, kind):
 def test_classifier_recognises_left_output(monkeypatch, tmp_path):
     from splicer import cli
 
-    def fail_after_writing(result, out, elapsed, after=None):  # an output exists, then exit 1
+    def fail_after_writing(result, out, elapsed, after=None, before=None):  # an output exists, then exit 1
         from splicer.errors import SplicerError
 
         raise SplicerError("late failure")

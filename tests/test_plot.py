@@ -88,3 +88,36 @@ def test_plot_refuses_an_empty_result_and_names_an_unwritable_path(sample_result
         plot_alignment(Empty(), tmp_path / "x.png")
     with pytest.raises(SplicerError, match="cannot write the plot"):
         plot_alignment(sample_result, tmp_path / "no-such-dir" / "x.png")
+
+
+def test_plot_content_axes_shading_and_few_ticks(sample_result, tmp_path, monkeypatch):
+    """Per side: two band images with their colour bars and a time map whose shaded ranges are
+    one collection per kind (however many runs), and at most 7 ticks an axis."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.figure import Figure
+
+    from splicer.pipeline import LOW_CONFIDENCE_S
+    from splicer.transfer.timemap import frame_ranges
+
+    figs = []
+    real_savefig = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (figs.append(self), real_savefig(self, *a, **k))[1])
+    plot_alignment(sample_result, tmp_path / "p.png", dpi=40)
+    (fig,) = figs
+    sides = list(sample_result.sides.values())
+    assert len(fig.axes) == 5 * len(sides)  # pass 1 + colour bar, pass 2 + colour bar, time map
+    maps = [ax for ax in fig.axes if ax.get_title().endswith("time map")]
+    assert len(maps) == len(sides)
+    for ax, s in zip(maps, sides):
+        low = np.isfinite(s.alignment.confidence.est_error_s) & (s.alignment.confidence.est_error_s > LOW_CONFIDENCE_S)
+        ranges = frame_ranges(low)
+        assert ranges  # the sample has low-confidence frames on both sides
+        shades = [c for c in ax.collections if isinstance(c, PolyCollection) and c.get_label().startswith("low confidence")]
+        assert len(shades) == 1 and len(shades[0].get_paths()) == len(ranges)
+        x0, x1 = shades[0].get_paths()[0].vertices[:, 0].min(), shades[0].get_paths()[0].vertices[:, 0].max()
+        assert (x0, x1) == (ranges[0][0] - 0.5, ranges[0][1] + 0.5)
+        assert [t.get_text() for t in ax.get_legend().get_texts()][-1].startswith("low confidence")
+    images = [im for ax in fig.axes for im in ax.images]
+    assert len(images) == 2 * len(sides)
+    for ax in fig.axes:
+        assert len(ax.yaxis.get_majorticklocs()) <= 7 and not len(ax.yaxis.get_minorticklocs())

@@ -1,0 +1,95 @@
+"""Start-up of the ``splice`` command on the bundled sample (issue 12).
+
+Wall and CPU (user + system) times of fresh processes, min over ``--repeat`` runs (the machine is
+shared: the minimum is the least disturbed run), with numba's cache warm and splicer's byte code
+compiled first (as an installed package has it):
+
+* ``import numpy``: ``python -c "import numpy"``, the yardstick (target: warm run <= 5x this);
+* ``--help``, ``--version``: the parser alone;
+* ``warm run``: the README's quick-start command without ``--plot``;
+* ``with --plot``: the same with ``--plot``; ``--plot added`` is the difference (target <= 0.5 s);
+* ``import matplotlib``: what ``--plot`` pays before drawing anything;
+* ``first run`` (``--first``): the warm-run command with ``NUMBA_CACHE_DIR`` set to a new, empty
+  folder, so every kernel the run calls is compiled (once; min over ``--first-repeat`` runs).
+
+Run from the repository root: ``python benchmarks/bench_startup.py [--repeat 10] [--first]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import compileall
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+M = ROOT / "motions"
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _wall(cmd: list[str], env: dict | None = None, check: bool = True) -> tuple[float, float]:
+    """(wall, CPU) seconds of one run of ``cmd``; CPU (user + system) is less disturbed by other processes."""
+    c0, t0 = _cpu(), time.perf_counter()
+    subprocess.run(cmd, check=check, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+    return time.perf_counter() - t0, _cpu() - c0
+
+
+def _min(cmd, repeat, env=None, check=True) -> tuple[float, float]:
+    runs = [_wall(cmd, env, check) for _ in range(repeat)]
+    return min(w for w, _ in runs), min(c for _, c in runs)
+
+
+def _sub(a, b):
+    return a[0] - b[0], a[1] - b[1]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=10)
+    ap.add_argument("--first", action="store_true", help="also time a first run in a new numba cache")
+    ap.add_argument("--first-repeat", type=int, default=2)
+    args = ap.parse_args(argv)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    py = sys.executable
+    with tempfile.TemporaryDirectory() as tmp:
+        base = [py, "-m", "splicer.cli", str(M / "sample_body.bvh"), str(M / "sample_hands.bvh"),
+                "-o", f"{tmp}/out.bvh", "--constraints", str(M / "sample_sync.yaml"), "--report", f"{tmp}/r.json"]
+        compileall.compile_dir(ROOT / "splicer", quiet=1)  # byte code, as an installed package has it
+        _wall(base, env)  # fill numba's cache (if cold) and the OS file cache
+        rows = {}
+        rows["import numpy"] = _min([py, "-c", "import numpy"], args.repeat, env)
+        rows["import matplotlib"] = _sub(_min([py, "-c", "import numpy, matplotlib.figure, matplotlib.backends.backend_agg"],
+                                              args.repeat, env), rows["import numpy"])
+        rows["--help"] = _min([py, "-m", "splicer.cli", "--help"], args.repeat, env)
+        rows["--version"] = _min([py, "-m", "splicer.cli", "--version"], args.repeat, env, check=False)
+        rows["warm run"] = _min(base, args.repeat, env)
+        rows["with --plot"] = _min(base + ["--plot", f"{tmp}/p.png"], args.repeat, env)
+        rows["--plot added"] = _sub(rows["with --plot"], rows["warm run"])
+        if args.first:
+            def first():
+                with tempfile.TemporaryDirectory() as cache:
+                    return _wall(base, dict(env, NUMBA_CACHE_DIR=cache))
+            runs = [first() for _ in range(args.first_repeat)]
+            rows["first run"] = min(w for w, _ in runs), min(c for _, c in runs)
+    print(f"| what | wall s (min of {args.repeat}) | CPU s (min) |\n|---|---|---|")
+    for k, (w, c) in rows.items():
+        print(f"| {k} | {w:.3f} | {c:.3f} |")
+    for i, unit in enumerate(("wall", "CPU")):
+        ratio = rows["warm run"][i] / rows["import numpy"][i]
+        added = rows["--plot added"][i]
+        print(f"{unit}: warm run / import numpy {ratio:.1f}x (target 5x: {'met' if ratio <= 5 else 'not met'}); "
+              f"--plot adds {added:.2f} s (target 0.5 s: {'met' if added <= 0.5 else 'not met'})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -179,6 +179,8 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     if p1 is not None:
         log.progress(f"{s}: confidence", 0.0)
         conf = pass_confidence(p1, fps)
+        if hasattr(p1.local_cost, "release"):
+            p1.local_cost.release()  # pass 1's kept costs (splicer.align.costcache): no later stage reads them
         log.tick("confidence")
     if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:
         log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "

@@ -40,7 +40,8 @@ def test_worked_answer_small_band():
     assert base.cells == 7 and cost.kept_rows == 2
     again = cost(band, 0, 2)                    # kept: no new cells computed
     assert base.cells == 7
-    assert again.tolist() == [[np.float32(0.1), np.float32(1.0), np.inf], [np.float32(2.0), np.float32(0.3), np.float32(1.5)]]
+    f = np.float32
+    assert again.tolist() == [[f(0.1), f(1.0), np.inf], [f(2.0), f(0.3), f(1.5)]]
     assert again.dtype == np.float64
     cost(band, 1, 3)                            # row 2 is past the budget: computed again
     assert base.cells == 7 + 5
@@ -84,10 +85,10 @@ def test_confidence_and_expected_path_unchanged(rng, budget):
     res = dtw(lambda i0, i1: plain(band, i0, i1), band)
     kept = CachedBandCost(_Counting(C), band, budget_bytes=budget)
     dtw(lambda i0, i1: kept(band, i0, i1), band)
-    for cost in (plain, kept):
-        assert cost is plain or kept.kept_rows == min(n, int(np.searchsorted(np.cumsum(band.hi - band.lo + 1), budget // 4, side="right")))
+    fits = int(np.searchsorted(np.cumsum(band.hi - band.lo + 1), budget // 4, side="right"))
+    assert kept.kept_rows == min(n, fits)
     a = pass_confidence(PassResult(res.path, res.cost, band, "pass1", plain), 30.0)
-    b = pass_confidence(PassResult(res.path, res.cost, band, "pass1", kept), 30.0)
+    b = pass_confidence(PassResult(res.path, res.cost, band, "pass1", plain, kept_cost=kept), 30.0)
     for f in ("spread_frames", "est_error_s", "confidence", "row_excess"):
         assert np.array_equal(getattr(a, f), getattr(b, f), equal_nan=True), f
     assert a.threshold == b.threshold
@@ -97,7 +98,7 @@ def test_confidence_and_expected_path_unchanged(rng, budget):
 
 
 def test_pass1_keeps_its_costs_and_the_splice_releases_them():
-    """pass1 wraps D1 in the cache; after the confidence the splice frees it."""
+    """pass1 keeps D1 in the cache beside its plain local cost; after the confidence the splice frees it."""
     from pathlib import Path
 
     from splicer.io.bvh import read_bvh
@@ -107,5 +108,6 @@ def test_pass1_keeps_its_costs_and_the_splice_releases_them():
     body, hands = read_bvh(root / "sample_body.bvh"), read_bvh(root / "sample_hands.bvh")
     r = splice(body, hands, side="left")
     p1 = r.sides["left"].pass1
-    assert isinstance(p1.local_cost, CachedBandCost) and p1.local_cost.band is p1.band
-    assert p1.local_cost.kept_rows == 0  # released
+    assert isinstance(p1.kept_cost, CachedBandCost) and p1.kept_cost.band is p1.band
+    assert p1.kept_cost.cost is p1.local_cost  # local_cost itself computes afresh (float64)
+    assert p1.kept_cost.kept_rows == 0  # released

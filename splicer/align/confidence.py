@@ -383,9 +383,10 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
         raise ValueError(f"{result.name} has no local cost to measure confidence on")
     band = result.band
     n = band.n
+    cost = getattr(result, "kept_cost", None) or result.local_cost  # pass 1's kept float32 costs: the same values
     cov = getattr(result, "covered", None) or (0, n - 1)
     if getattr(result, "ends", "fixed") == "open" or tuple(cov) == (0, n - 1):
-        return row_confidence(_PassRows(result.local_cost, band, 0), band, result.path, fps,
+        return row_confidence(_PassRows(cost, band, 0), band, result.path, fps,
                               uncovered_cost=getattr(result, "uncovered_cost", 0.0),
                               step_penalty=getattr(result, "step_penalty", 0.0),
                               horizontal_weight=getattr(result, "horizontal_weight", 1.0), **kwargs)
@@ -394,7 +395,7 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
     c0 = int(result.path[0, 1])
     sub = Band(n=b - a + 1, m=int(result.path[-1, 1]) - c0 + 1, width=band.width,
                lo=band.lo[a:b + 1] - c0, hi=band.hi[a:b + 1] - c0)
-    conf = row_confidence(_PassRows(result.local_cost, band, a), sub,
+    conf = row_confidence(_PassRows(cost, band, a), sub,
                           result.path - np.array([a, c0]), fps, step_penalty=getattr(result, "step_penalty", 0.0),
                           horizontal_weight=getattr(result, "horizontal_weight", 1.0), **kwargs)
     def put(x, fill):

@@ -62,6 +62,10 @@ class PassResult:
         Frame rate of the pass's sequences, when recorded.
     notes : tuple of str
         Fallbacks the pass took (for the report's warnings).
+    kept_cost : CachedBandCost or None
+        Pass 1: ``local_cost`` with the rows the DTW computed kept as float32
+        (:mod:`splicer.align.costcache`), for the readers that store float32 anyway (the
+        expected path, the confidence); ``local_cost`` itself always computes afresh.
     """
 
     path: np.ndarray
@@ -77,6 +81,7 @@ class PassResult:
     located: object = None
     fps: float | None = None
     notes: tuple = ()
+    kept_cost: object = None
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
@@ -101,7 +106,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
-          horizontal_weight: float | None = None, cache_bytes: int = CACHE_BYTES) -> PassResult:
+          horizontal_weight: float | None = None,
+          cache_bytes: int = CACHE_BYTES) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -196,10 +202,11 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                      f"band of {width:g} frames instead (a long take may drift out of it: check the pins)",)
     else:
         band = make_band(n, m, width, constraints)
-    d1 = CachedBandCost(d1_cost(fb, fh, theta=theta), band, budget_bytes=cache_bytes)
-    res = _run(d1, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
+    d1 = d1_cost(fb, fh, theta=theta)
+    kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
+    res = _run(kept, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw,
-                      notes=notes)
+                      notes=notes, kept_cost=kept)
 
 
 def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
@@ -247,11 +254,12 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ra
         band = cband
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
-    d1 = CachedBandCost(d1_cost(fb, fh, theta=theta), band, budget_bytes=cache_bytes)
-    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
+    d1 = d1_cost(fb, fh, theta=theta)
+    kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
+    res = _run(kept, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
                horizontal_weight=horizontal_weight)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
-                      float(horizontal_weight), located, body.fps, notes)
+                      float(horizontal_weight), located, body.fps, notes, kept)
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

@@ -87,6 +87,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     """
     from ..align.passes import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
     from ..align.band import band_frames
+    from ..align.band_width import pass_widths
     from ..align.confidence import pass_confidence
     from ..align.noise import matched_smoothing
     from ..align.posterior import expected_frames
@@ -109,10 +110,9 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
 
     def run_pass1(mode: str):
         open_ends = mode == "open"
-        band1 = opts.band1 if opts.band1 is not None else (D.OPEN_BAND1 if open_ends else D.BAND1)
-        w1 = band_frames(band1, n=n, fps=fps)
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
         guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
+        w1, w2 = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=open_ends, guided=guided)
         p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
                   sign_ramp=opts.sign_ramp,
                   theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
@@ -120,7 +120,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
                   coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
                   progress=lambda f: log.progress(f"{s}: pass 1", f))
-        return p, w1, cons
+        return p, w1, w2, cons
 
     p1 = p2 = posterior = None
     covered = None
@@ -128,12 +128,12 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     try:
         if opts.passes in ("pass1", "both"):
             log.progress(f"{s}: pass 1", 0.0)
-            p1, w1, cons = run_pass1(used)
+            p1, w1, w2, cons = run_pass1(used)
             if ends == "auto":
                 why = _choose_ends(p1, n, m, fps, markers.pins)
                 if why is not None:
                     used = "fixed"
-                    p1, w1, cons = run_pass1("fixed")
+                    p1, w1, w2, cons = run_pass1("fixed")
                     if why.startswith("!"):
                         log.note(f"{s} side: {why[1:]}")
             for msg in p1.notes:
@@ -153,7 +153,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         else:
             w1 = band_frames(opts.band1 if opts.band1 is not None else D.BAND1, n=n, fps=fps)
             cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
-        w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
+            w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
         if opts.passes == "both":
             log.progress(f"{s}: pass 2", 0.0)
             filled = hold_ends(per_frame)
@@ -179,8 +179,8 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     if p1 is not None:
         log.progress(f"{s}: confidence", 0.0)
         conf = pass_confidence(p1, fps)
-        if hasattr(p1.local_cost, "release"):
-            p1.local_cost.release()  # pass 1's kept costs (splicer.align.costcache): no later stage reads them
+        if p1.kept_cost is not None:
+            p1.kept_cost.release()  # pass 1's kept costs (splicer.align.costcache): no later stage reads them
         log.tick("confidence")
     if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:
         log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "

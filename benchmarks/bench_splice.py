@@ -185,14 +185,17 @@ def table(results: list[dict]) -> str:
         if r.get("error"):
             lines.append("alignment error against the truth (hands frames): " + "; ".join(
                 f"{s} mean {e[0]:.2f}, p95 {e[1]:.2f}" for s, e in sorted(r["error"].items())) + "\n")
-        lines.append("| side | markers (s) | pass 1 (s) | pass 2 (s) | merge (s) | side total (s) |")
-        lines.append("|---|---:|---:|---:|---:|---:|")
+        lines.append("| side | markers (s) | pass 1 (s) | expected path (s) | pass 2 (s) | confidence (s) | transfer (s) "
+                     "| side total (s) |")
+        lines.append("|---|---:|---:|---:|---:|---:|---:|---:|")
         for side in ("left", "right"):
             st = {k.split(": ", 1)[1]: v for k, v in r["stages"].items() if k.startswith(side + ": ")}
             if not st:
                 continue
-            cells = [st.get(k, 0.0) for k in ("markers", "pass 1", "pass 2", "merge")]
+            cells = [st.get(k, 0.0) for k in ("markers", "pass 1", "expected", "pass 2", "confidence", "transfer")]
             lines.append(f"| {side} | " + " | ".join(f"{c:.2f}" for c in cells) + f" | {sum(cells):.2f} |")
+        checks = sum(v for k, v in r["stages"].items() if k.startswith("checks"))
+        lines.append(f"\nHands checks (dropouts, handedness) before the sides: {checks:.2f} s.")
         fps = r["n_body"] / r["total"]
         lines.append(f"\nSplice {r['total']:.2f} s (Euler-to-quaternion conversion of the joints it needs included): "
                      f"{fps:,.0f} body frames/s overall; peak memory (VmHWM of the child) "
@@ -263,6 +266,7 @@ def main(argv=None) -> int:
     print(text)
     if args.out:
         Path(args.out).write_text(text, encoding="utf-8")
+        Path(args.out).with_suffix(".json").write_text(json.dumps(results, indent=1), encoding="utf-8")
     return 0
 
 

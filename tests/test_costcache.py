@@ -37,7 +37,7 @@ def test_worked_answer_small_band():
     cost = CachedBandCost(base, band, budget_bytes=20)
     first = cost(band, 0, 3)                   # what the DTW sees: the fresh float64 values
     assert first[0, :2].tolist() == [0.1, 1.0] and first[0, 2] == np.inf
-    assert base.cells == 7 and cost.kept_rows == 2
+    assert base.cells == 7 and cost.kept_rows == 2 and cost.kept_bytes == 20
     again = cost(band, 0, 2)                    # kept: no new cells computed
     assert base.cells == 7
     f = np.float32
@@ -52,7 +52,7 @@ def test_worked_answer_small_band():
     assert got.tolist() == [[np.float32(0.1), np.inf], [np.float32(0.3), np.float32(1.5)]]
     cost.release()
     cost(band, 0, 2)
-    assert base.cells == 12 + 5 and cost.kept_rows == 0
+    assert base.cells == 12 + 5 and cost.kept_rows == 0 and cost.kept_bytes == 0
 
 
 def test_served_rows_equal_fresh_float32(rng):

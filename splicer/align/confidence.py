@@ -181,7 +181,8 @@ def _blocked_row_stats(cost, band: Band, off, path, sc, ec, ob, oe, pen, hx, pat
     costs along the path, and keeps blocks' local costs while they fit in
     :data:`KEEP_COST_BYTES`.  ``path_optimum(local) -> (optimum, tau)`` then gives the
     thresholds.  Blocks the cost serves from a copy (``cost.cached(i0, i1)``, pass 1's
-    :class:`splicer.align.costcache.CachedBandCost`) are not kept again.  Sweep 2 walks the blocks from the last, takes the block's local costs (kept,
+    :class:`splicer.align.costcache.CachedBandCost`) are not kept again, and the copy's bytes
+    (``cost.kept_bytes``) count against :data:`KEEP_COST_BYTES`.  Sweep 2 walks the blocks from the last, takes the block's local costs (kept,
     else gathered again: the same values), recomputes its forward costs from the checkpoint
     (the same arithmetic, so the same float32 values as one full sweep), runs the backward
     recurrence from the state the later block left and takes the rows' statistics.  Fills
@@ -205,7 +206,7 @@ def _blocked_row_stats(cost, band: Band, off, path, sc, ec, ob, oe, pen, hx, pat
     prow = path[:, 0]
     local = np.empty(len(path), np.float32)
     kept: dict[int, np.ndarray] = {}
-    room = KEEP_COST_BYTES
+    room = KEEP_COST_BYTES - int(getattr(cost, "kept_bytes", 0))  # with pass 1's copy: no more cost memory in all
     for b, i0 in enumerate(starts):
         i1 = min(n, i0 + rows)
         cb = _gather_rows(cost, band, off, i0, i1)
@@ -369,6 +370,10 @@ class _PassRows:
     def cached(self, i0: int, i1: int) -> bool:
         covers = getattr(self.cost, "covers", None)
         return covers is not None and covers(self.band, i0 + self.shift, i1 + self.shift)
+
+    @property
+    def kept_bytes(self) -> int:
+        return int(getattr(self.cost, "kept_bytes", 0))
 
 
 def pass_confidence(result, fps: float, **kwargs) -> Confidence:

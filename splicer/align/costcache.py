@@ -63,6 +63,11 @@ class CachedBandCost:
         """Number of leading rows of :attr:`band` whose costs are kept."""
         return self._filled
 
+    @property
+    def kept_bytes(self) -> int:
+        """Bytes of costs kept now."""
+        return 4 * int(self._off[self._filled])
+
     def release(self) -> None:
         """Free the kept costs; later calls compute everything again."""
         self._flat = None

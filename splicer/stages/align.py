@@ -133,6 +133,8 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
                 why = _choose_ends(p1, n, m, fps, markers.pins)
                 if why is not None:
                     used = "fixed"
+                    if p1.kept_cost is not None:
+                        p1.kept_cost.release()  # the open-ended pass is dropped: free its kept costs first
                     p1, w1, w2, cons = run_pass1("fixed")
                     if why.startswith("!"):
                         log.note(f"{s} side: {why[1:]}")

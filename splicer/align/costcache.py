@@ -1,8 +1,8 @@
 """Pass 1's local costs, kept once computed, for the stages that read them again.
 
 Pass 1's band-chunk cost (D1, :func:`splicer.align.costs.d1_cost`) is the dearest part of a
-splice: 0.1-0.3 microseconds a cell (two threads; more under load), tens of millions of cells on a long take.  After the DTW
-two more stages read the same cells: the expected path (:mod:`splicer.align.posterior`, a
+splice: 0.1-0.3 microseconds a cell (two threads; more under load), tens of millions of cells
+on a long take.  After the DTW two more stages read the same cells: the expected path (:mod:`splicer.align.posterior`, a
 tube around the best path inside the pass's band) and the confidence
 (:mod:`splicer.align.confidence`, the whole band, twice).  Both store the costs as float32,
 so a float32 copy of what the DTW computed gives them exactly the values they would compute

@@ -5,7 +5,13 @@ Pairs (made by :func:`splicer.evaluation.separate.separate`, ALGORITHM.md sectio
 * ``zeggs``: ``../shared/motions/zeggs/067_Speech_2_x_1_0.bvh`` separated with seed 0 (body
   30 fps, hands 60 fps); skipped with a note when the shared folder is absent;
 * ``synthetic 20 min``: ``make_gesture_take(1200 s, 60 fps)`` separated with ``hands_fps=120``,
-  spliced with ``band1="20s"`` (other options default).
+  spliced with the default options (a guided long take: a 4 s pass-1 band around the coarse
+  path, ``splicer.defaults.GUIDED_BAND1``) and again with ``band1="20s"`` (the band the README
+  suggested for long takes before), with the alignment error against the separation's truth
+  (hands frames, mean and 95th percentile per side).
+
+The ``splice`` command runs end to end on the pair written as BVH, both ways (default and
+``--band 20s``).
 
 Each case runs in its own child process (the pair is handed over as a pickle, so the child's
 memory is the splice's): stage times come from the splice's progress callback (per side),
@@ -62,7 +68,7 @@ def child(pickle_path: str, options_json: str) -> None:
     tiny = separate(make_gesture_take(4, 30, rng), rng=rng)
     splice(tiny.body, tiny.hands)  # numba warm-up
     with open(pickle_path, "rb") as f:
-        body, hands = pickle.load(f)
+        body, hands, truth = pickle.load(f)
     rss_loaded = _status_kb("VmRSS")
     options = json.loads(options_json)
     marks: list[tuple[str, float]] = []
@@ -80,16 +86,21 @@ def child(pickle_path: str, options_json: str) -> None:
     peak = _status_kb("VmHWM")
     if peak is None:
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    print(json.dumps({"stages": stages, "total": total, "timings_s": res.report["timings_s"],
+    error = {}
+    if truth is not None:
+        for s, r in res.sides.items():
+            e = np.abs(r.hands_frame - truth)
+            error[s] = [float(np.nanmean(e)), float(np.nanpercentile(e, 95))]
+    print(json.dumps({"error": error, "stages": stages, "total": total, "timings_s": res.report["timings_s"],
                       "peak_mb": peak / 1024, "loaded_mb": (rss_loaded or float("nan")) / 1024,
                       "band1": {s: r.pass1.band.width for s, r in res.sides.items() if r.pass1 is not None},
                       "band2": {s: r.pass2.band.width for s, r in res.sides.items() if r.pass2 is not None}}))
 
 
-def run_case(name: str, body, hands, options: dict, tmp: Path) -> dict:
+def run_case(name: str, body, hands, options: dict, tmp: Path, truth=None) -> dict:
     p = tmp / f"{name.replace(' ', '_')}.pkl"
     with open(p, "wb") as f:
-        pickle.dump((body, hands), f, protocol=pickle.HIGHEST_PROTOCOL)
+        pickle.dump((body, hands, truth), f, protocol=pickle.HIGHEST_PROTOCOL)
     out = subprocess.run([sys.executable, __file__, "--child", str(p), json.dumps(options)],
                          capture_output=True, text=True, check=False)
     p.unlink()
@@ -112,30 +123,32 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
-def cli_child(body: str, hands: str, out: str, report: str) -> None:
-    """Run in a child process: the ``splice`` command in-process, then print wall time and VmHWM."""
+def cli_child(body: str, hands: str, out: str, report: str, band: str) -> None:
+    """Run in a child process: the ``splice`` command in-process (``--band band`` unless empty),
+    then print wall time and VmHWM."""
     sys.path.insert(0, str(REPO))
     from splicer.cli import main
 
     t0 = time.perf_counter()
-    code = main([body, hands, "-o", out, "--band", "20s", "--quiet", "--report", report])
+    code = main([body, hands, "-o", out, "--quiet", "--report", report] + (["--band", band] if band else []))
     wall = time.perf_counter() - t0
     peak = _status_kb("VmHWM") or resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     print(json.dumps({"code": code, "wall": wall, "peak_mb": peak / 1024}))
 
 
-def run_cli(sep, tmp: Path) -> dict:
+def run_cli(sep, tmp: Path, band: str = "") -> dict:
     from splicer.io.bvh import write_bvh
 
     body, hands, out, rep = tmp / "body.bvh", tmp / "hands.bvh", tmp / "out.bvh", tmp / "report.json"
-    write_bvh(sep.body, body)
-    write_bvh(sep.hands, hands)
+    if not body.exists():
+        write_bvh(sep.body, body)
+        write_bvh(sep.hands, hands)
     # warm the numba cache in this environment first (a user's second run)
     subprocess.run([sys.executable, "-c", "import numpy as np; from splicer.evaluation.synth import make_gesture_take; "
                     "from splicer.evaluation.separate import separate; from splicer import splice; "
                     "r = np.random.default_rng(1); s = separate(make_gesture_take(4, 30, r), rng=r); "
                     "splice(s.body, s.hands, band1='2s', coarse='on')"], check=True, cwd=str(REPO))
-    res = subprocess.run([sys.executable, __file__, "--cli", str(body), str(hands), str(out), str(rep)],
+    res = subprocess.run([sys.executable, __file__, "--cli", str(body), str(hands), str(out), str(rep), band],
                          capture_output=True, text=True, check=False)
     if res.returncode != 0:
         raise RuntimeError(res.stderr.strip().splitlines()[-1] if res.stderr.strip() else "splice failed")
@@ -169,14 +182,20 @@ def table(results: list[dict]) -> str:
         lines.append(f"### {r['name']}: body {r['n_body']} frames @ {r['body_fps']:g} fps, hands {r['n_hands']} frames "
                      f"@ {r['hands_fps']:g} fps, options {r['options'] or 'default'}")
         lines.append(f"band widths (body frames): pass 1 {r['band1']}, pass 2 {r['band2']}\n")
-        lines.append("| side | markers (s) | pass 1 (s) | pass 2 (s) | merge (s) | side total (s) |")
-        lines.append("|---|---:|---:|---:|---:|---:|")
+        if r.get("error"):
+            lines.append("alignment error against the truth (hands frames): " + "; ".join(
+                f"{s} mean {e[0]:.2f}, p95 {e[1]:.2f}" for s, e in sorted(r["error"].items())) + "\n")
+        lines.append("| side | markers (s) | pass 1 (s) | expected path (s) | pass 2 (s) | confidence (s) | transfer (s) "
+                     "| side total (s) |")
+        lines.append("|---|---:|---:|---:|---:|---:|---:|---:|")
         for side in ("left", "right"):
             st = {k.split(": ", 1)[1]: v for k, v in r["stages"].items() if k.startswith(side + ": ")}
             if not st:
                 continue
-            cells = [st.get(k, 0.0) for k in ("markers", "pass 1", "pass 2", "merge")]
+            cells = [st.get(k, 0.0) for k in ("markers", "pass 1", "expected", "pass 2", "confidence", "transfer")]
             lines.append(f"| {side} | " + " | ".join(f"{c:.2f}" for c in cells) + f" | {sum(cells):.2f} |")
+        checks = sum(v for k, v in r["stages"].items() if k.startswith("checks"))
+        lines.append(f"\nHands checks (dropouts, handedness) before the sides: {checks:.2f} s.")
         fps = r["n_body"] / r["total"]
         lines.append(f"\nSplice {r['total']:.2f} s (Euler-to-quaternion conversion of the joints it needs included): "
                      f"{fps:,.0f} body frames/s overall; peak memory (VmHWM of the child) "
@@ -192,7 +211,7 @@ def main(argv=None) -> int:
     ap.add_argument("--minutes", type=float, default=20.0, help="length of the synthetic pair (default 20)")
     ap.add_argument("--no-long", action="store_true", help="skip the synthetic pair")
     ap.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
-    ap.add_argument("--cli", nargs=4, help=argparse.SUPPRESS)
+    ap.add_argument("--cli", nargs=5, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
         child(*args.child)
@@ -211,7 +230,7 @@ def main(argv=None) -> int:
         if ZEGGS.is_file():
             take = read_bvh(ZEGGS)
             sep = separate(take, rng=np.random.default_rng(0))
-            results.append(run_case("zeggs 067_Speech_2_x_1_0 (seed 0)", sep.body, sep.hands, {}, tmp))
+            results.append(run_case("zeggs 067_Speech_2_x_1_0 (seed 0)", sep.body, sep.hands, {}, tmp, sep.truth))
             print(f"zeggs done: {results[-1]['total']:.2f} s", file=sys.stderr, flush=True)
         else:
             notes.append(f"{ZEGGS} not found: the zeggs case was skipped.")
@@ -227,23 +246,27 @@ def main(argv=None) -> int:
             print(notes[-1], file=sys.stderr, flush=True)
             del take
             name = f"synthetic {args.minutes:g} min"
-            results.append(run_case(name, sep.body, sep.hands, {"band1": "20s"}, tmp))
-            print(f"{name} done: {results[-1]['total']:.2f} s", file=sys.stderr, flush=True)
-            cli = run_cli(sep, tmp)
-            notes.append(
-                f"End to end, the command a user runs (`splice body.bvh hands.bvh -o out.bvh --band 20s`) on the "
-                f"{args.minutes:g}-minute pair written as BVH ({cli['body_mb']:.0f} MB + {cli['hands_mb']:.0f} MB): "
-                f"**{cli['wall']:.1f} s** wall (read {cli['timings_s'].get('read', 0):.1f} s, splice "
-                f"{cli['timings_s']['total'] - cli['timings_s'].get('read', 0):.1f} s, the rest writing the output), "
-                f"peak memory **{cli['peak_mb']:,.0f} MB** (VmHWM). pandas' C parser reads the two files' motion "
-                f"blocks in {cli['pandas_s']:.1f} s: the whole splice takes {cli['wall'] / cli['pandas_s']:.2f}x that.")
-            print(notes[-1], file=sys.stderr, flush=True)
+            for options, label in (({}, "default options"), ({"band1": "20s"}, "band1 20s")):
+                results.append(run_case(f"{name}, {label}", sep.body, sep.hands, options, tmp, sep.truth))
+                print(f"{name}, {label} done: {results[-1]['total']:.2f} s", file=sys.stderr, flush=True)
+            for band in ("", "20s"):
+                cli = run_cli(sep, tmp, band)
+                command = "splice body.bvh hands.bvh -o out.bvh" + (f" --band {band}" if band else "")
+                notes.append(
+                    f"End to end, the command a user runs (`{command}`) on the "
+                    f"{args.minutes:g}-minute pair written as BVH ({cli['body_mb']:.0f} MB + {cli['hands_mb']:.0f} MB): "
+                    f"**{cli['wall']:.1f} s** wall (read {cli['timings_s'].get('read', 0):.1f} s, splice "
+                    f"{cli['timings_s']['total'] - cli['timings_s'].get('read', 0):.1f} s, the rest writing the output), "
+                    f"peak memory **{cli['peak_mb']:,.0f} MB** (VmHWM). pandas' C parser reads the two files' motion "
+                    f"blocks in {cli['pandas_s']:.1f} s: the whole splice takes {cli['wall'] / cli['pandas_s']:.2f}x that.")
+                print(notes[-1], file=sys.stderr, flush=True)
     text = (f"# Splice speed (benchmarks/bench_splice.py)\n\nMachine: {_cpu_model()}, "
             f"{os.cpu_count()} cores, Python {platform.python_version()}. Input pairs are in memory (no BVH read).\n\n"
             + table(results) + ("\n" + "\n".join(notes) + "\n" if notes else ""))
     print(text)
     if args.out:
         Path(args.out).write_text(text, encoding="utf-8")
+        Path(args.out).with_suffix(".json").write_text(json.dumps(results, indent=1), encoding="utf-8")
     return 0
 
 

@@ -11,7 +11,23 @@ Units are in the names: ``_S`` seconds, ``_FPS`` frames per second, ``_FRAMES`` 
 from __future__ import annotations
 
 #: Pass-1 band width: 30 % of the body take (the paper).  See :func:`splicer.band.band_frames`.
+#: Used for takes aligned end to end without the coarse guide (up to :data:`COARSE_ABOVE_S`).
 BAND1 = "30%"
+#: Pass-1 band width of a guided long take (fixed ends, longer than :data:`COARSE_ABOVE_S`):
+#: the band follows the coarse guide pass's path, so it only has to hold the fine path's
+#: departures from that path, not the take's drift from uniform timing.  30 % of a 20-minute
+#: take (about 2 billion band cells, 2 GB of DTW steps) would be absurd.  Measured on the
+#: 20-minute benchmark pair (README, *Speed*): bands of 4, 8 and 20 s give the same pass-1 path
+#: and confidence; 2 s moves the path (left side mean error 5.4 -> 6.7 frames); chosen with a
+#: margin over that.
+GUIDED_BAND1 = "4s"
+#: Pass-2 band of a guided long take with the default pass-1 band: a third
+#: (:data:`BAND2_PER_BAND1`) of this width, as when such takes ran pass 1 in a 20 s band.
+#: Pass 2's departure penalty is per band width, so a third of 4 s would weigh departures 5x
+#: harder: measured, the left side's mean error rose from 5.20 to 5.43 frames; with this
+#: band it stays at 5.20 (both sides equal to the 20 s band's to the last digit).  Pass 2 is
+#: cheap (D2 in a 400-frame band: about 1 s a side on 20 minutes).
+GUIDED_BAND2_OF = "20s"
 #: Pass-1 band width with open ends: the band around the located overlap (the locating pass
 #: itself covers the whole hands take).
 OPEN_BAND1 = "3s"

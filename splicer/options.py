@@ -21,8 +21,8 @@ class SpliceOptions:
     """
 
     side: str = "both"
-    band1: int | float | str | None = None  # None: 30% with fixed ends (the paper), 3 s around the located path with open ends
-    band2: int | float | str | None = None  # None: a third of band1 (the paper: 30% and 10%)
+    band1: int | float | str | None = None  # None: 30% with fixed ends (the paper), 3 s around the located path with open ends, 4 s around the coarse guide's path for a long take end to end (band_width.pass_widths)
+    band2: int | float | str | None = None  # None: a third of band1 (the paper: 30% and 10%); a third of 20 s with the long takes' 4 s
     theta: str = "window"  # or "heading"
     passes: str = "both"  # "pass1", "pass2" (pass 2 alone, for comparison) or "both"
     pass2_weight: float = D.PASS2_WEIGHT  # radians per band width of departure from the pass-1 warp; 0 = literal

@@ -57,6 +57,42 @@ def test_coarse_guide_keeps_a_drifting_take_in_a_narrow_band():
     assert err(guided) < 3.0
 
 
+
+def test_pass_widths_worked_answers():
+    """The default band policy: 30 % (the paper) for a short take end to end, 3 s with open ends,
+    4 s around the coarse guide for a long take end to end, whose pass 2 keeps a third of 20 s."""
+    from splicer.align.band_width import pass_widths
+
+    # a 20-minute take at 60 fps, guided: 4 s = 240 frames, pass 2 a third of 20 s = 400 frames
+    assert pass_widths(None, None, n=72000, fps=60.0, open_ends=False, guided=True) == (240.0, 400.0)
+    # the same take open-ended: the located overlap's 3 s band and a third of it
+    assert pass_widths(None, None, n=72000, fps=60.0, open_ends=True, guided=True) == (180.0, 60.0)
+    # 30 s at 30 fps, unguided: 30 % of 900 frames = 270, pass 2 a third: 90
+    assert pass_widths(None, None, n=900, fps=30.0, open_ends=False, guided=False) == (270.0, 90.0)
+    # the user's band keeps the paper's ratio; the user's band2 is taken as given
+    assert pass_widths("20s", None, n=72000, fps=60.0, open_ends=False, guided=True) == (1200.0, 400.0)
+    assert pass_widths(None, "2s", n=72000, fps=60.0, open_ends=False, guided=True) == (240.0, 120.0)
+    assert pass_widths(120, 30, n=900, fps=30.0, open_ends=False, guided=False) == (120.0, 30.0)
+
+
+def test_a_guided_long_take_gets_the_narrow_default_band():
+    """A 20 s take at 30 fps counts as long when ``coarse_above_s`` is 10 s: pass 1 runs in a
+    4 s band (120 body frames) around the coarse path and pass 2 in a third of 20 s (200
+    frames); with the coarse guide off the same take gets 30 % of its 601 frames (180.3) and a
+    third of it (60.1)."""
+    take = make_gesture_take(20.0, 30.0, np.random.default_rng(3))
+    sep = separate(take, rng=np.random.default_rng(4))
+    assert sep.body.n_frames == 601
+    long_ = splice(sep.body, sep.hands, side="right", ends="fixed", coarse_above_s=10.0)
+    assert long_.sides["right"].pass1.band.width == 120.0
+    assert long_.sides["right"].pass2.band.width == 200.0
+    short = splice(sep.body, sep.hands, side="right", ends="fixed", coarse="off")
+    assert short.sides["right"].pass1.band.width == pytest.approx(180.3)
+    assert short.sides["right"].pass2.band.width == pytest.approx(60.1)
+    hf = np.asarray(long_.report["sides"]["right"]["hands_frame"])
+    assert np.abs(hf - sep.truth).mean() < 3.0  # and the narrow band still finds the take's timing
+
+
 # -- markers on another timeline ----------------------------------------------------------------
 
 def _ramp_markers(values, fps=120.0):

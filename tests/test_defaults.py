@@ -24,6 +24,8 @@ def test_splice_options_match_the_defaults_module():
     # band1 None: defaults.BAND1 (30%) with fixed ends, defaults.OPEN_BAND1 (3 s) with open ends
     assert (o.band1, o.smooth_s, o.dead_zone) == (None, defaults.SMOOTH_S, defaults.DEAD_ZONE)
     assert (defaults.BAND1, defaults.OPEN_BAND1) == ("30%", "3s")
+    # guided long takes with fixed ends: 4 s around the coarse path, pass 2 a third of 20 s
+    assert (defaults.GUIDED_BAND1, defaults.GUIDED_BAND2_OF) == ("4s", "20s")
     assert (o.pass2_weight, o.pass2_d1_weight) == (defaults.PASS2_WEIGHT, defaults.PASS2_D1_WEIGHT)
     assert (o.timemap_sigma_s, o.blend_window) == (defaults.TIMEMAP_SIGMA_S, defaults.BLEND_WINDOW_FRAMES)
     assert (o.coarse_fps, o.coarse_above_s) == (defaults.COARSE_FPS, defaults.COARSE_ABOVE_S)

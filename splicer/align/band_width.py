@@ -9,7 +9,7 @@ import re
 
 from ..errors import ConstraintError
 
-__all__ = ['band_frames']
+__all__ = ["band_frames", "pass_widths"]
 
 
 def band_frames(width, *, n: int, fps: float | None = None) -> float:
@@ -82,3 +82,56 @@ def band_frames(width, *, n: int, fps: float | None = None) -> float:
             f"band width {spec!r} is less than one frame: numbers are frames; write a share of "
             f"the body take as a percentage ('{100 * w:g}%') or seconds as '20s'")
     return w
+
+
+def pass_widths(band1, band2, *, n: int, fps: float, open_ends: bool, guided: bool) -> tuple[float, float]:
+    """Pass-1 and pass-2 band widths in body frames: the user's, else the defaults' policy.
+
+    * ``band1`` None: :data:`splicer.defaults.OPEN_BAND1` (3 s around the located overlap) with
+      open ends; :data:`splicer.defaults.GUIDED_BAND1` (4 s around the coarse guide's path) for
+      a guided long take with fixed ends; else :data:`splicer.defaults.BAND1` (30 %, the paper).
+    * ``band2`` None: a third of :data:`splicer.defaults.GUIDED_BAND2_OF` (20 s) when pass 1
+      took the guided default, else ``band1`` times :data:`splicer.defaults.BAND2_PER_BAND1` (a third, the paper's 30 %
+      and 10 %).
+
+    Parameters
+    ----------
+    band1, band2 : int, float, str or None
+        As :func:`band_frames` takes them; None for the default.
+    n : int
+        Body frames.
+    fps : float
+        Body frame rate, frames per second.
+    open_ends : bool
+        Pass 1 is open-ended.
+    guided : bool
+        Pass 1 runs the coarse guide pass first (ignored with open ends, whose locating pass
+        plays that part).
+
+    Returns
+    -------
+    (float, float)
+        ``(W1, W2)``, body frames.
+
+    Examples
+    --------
+    >>> pass_widths(None, None, n=72000, fps=60.0, open_ends=False, guided=True)
+    (240.0, 400.0)
+    >>> pass_widths(None, None, n=600, fps=30.0, open_ends=False, guided=False)
+    (180.0, 60.0)
+    >>> pass_widths("20s", None, n=72000, fps=60.0, open_ends=False, guided=True)
+    (1200.0, 400.0)
+    """
+    from .. import defaults as D
+
+    guided_default = band1 is None and guided and not open_ends
+    if band1 is None:
+        band1 = D.OPEN_BAND1 if open_ends else (D.GUIDED_BAND1 if guided else D.BAND1)
+    w1 = band_frames(band1, n=n, fps=fps)
+    if band2 is not None:
+        w2 = band_frames(band2, n=n, fps=fps)
+    elif guided_default:
+        w2 = band_frames(D.GUIDED_BAND2_OF, n=n, fps=fps) * D.BAND2_PER_BAND1
+    else:
+        w2 = w1 * D.BAND2_PER_BAND1
+    return w1, w2

@@ -210,13 +210,16 @@ def _blocked_row_stats(cost, band: Band, off, path, sc, ec, ob, oe, pen, hx, pat
     the forward recurrence, keeps its float64 state at the start of each block and the local
     costs along the path, and keeps blocks' local costs while they fit in
     :data:`KEEP_COST_BYTES`.  ``path_optimum(local) -> (optimum, tau)`` then gives the
-    thresholds.  Sweep 2 walks the blocks from the last, takes the block's local costs (kept,
+    thresholds.  Blocks the cost serves from a copy (``cost.cached(i0, i1)``, pass 1's
+    :class:`splicer.align.costcache.CachedBandCost`) are not kept again, and the copy's bytes
+    (``cost.kept_bytes``) count against :data:`KEEP_COST_BYTES`.  Sweep 2 walks the blocks from the last, takes the block's local costs (kept,
     else gathered again: the same values), recomputes its forward costs from the checkpoint
     (the same arithmetic, so the same float32 values as one full sweep), runs the backward
     recurrence from the state the later block left and takes the rows' statistics.  Fills
     ``spread``, ``err``, ``exmin`` in place.
     """
     n = band.n
+    cached = getattr(cost, "cached", None) or (lambda i0, i1: False)  # rows the cost serves from a copy
     lo = np.ascontiguousarray(band.lo, np.int64)
     hi = np.ascontiguousarray(band.hi, np.int64)
     wmax = int(np.max(hi - lo + 1))
@@ -233,7 +236,7 @@ def _blocked_row_stats(cost, band: Band, off, path, sc, ec, ob, oe, pen, hx, pat
     prow = path[:, 0]
     local = np.empty(len(path), np.float32)
     kept: dict[int, np.ndarray] = {}
-    room = KEEP_COST_BYTES
+    room = KEEP_COST_BYTES - int(getattr(cost, "kept_bytes", 0))  # with pass 1's copy: no more cost memory in all
     for b, i0 in enumerate(starts):
         i1 = min(n, i0 + rows)
         cb = _gather_rows(cost, band, off, i0, i1)
@@ -243,7 +246,7 @@ def _blocked_row_stats(cost, band: Band, off, path, sc, ec, ob, oe, pen, hx, pat
         ck_prev[b] = prev
         ck_pst[b] = pst
         _forward_rows(cb, lo, hi, off, sc, ob, pen, hx, i0, i1, prev, pst, fbuf, off[i0], fmin)
-        if cb.nbytes <= room:
+        if cb.nbytes <= room and not cached(i0, i1):
             kept[b] = cb
             room -= cb.nbytes
     optimum, tau = path_optimum(local.astype(np.float64))
@@ -384,6 +387,25 @@ def row_confidence(cost, band: Band, path: np.ndarray, fps: float, *, open_begin
                       error_scale_s=float(error_scale_s), row_excess=np.maximum(exmin, 0.0))
 
 
+class _PassRows:
+    """``(i0, i1) -> rows i0 + shift .. i1 - 1 + shift`` of a pass's band-chunk cost; ``cached(i0, i1)``
+    says whether those rows come from pass 1's kept copy (:mod:`splicer.align.costcache`)."""
+
+    def __init__(self, cost, band: Band, shift: int):
+        self.cost, self.band, self.shift = cost, band, shift
+
+    def __call__(self, i0: int, i1: int) -> np.ndarray:
+        return self.cost(self.band, i0 + self.shift, i1 + self.shift)
+
+    def cached(self, i0: int, i1: int) -> bool:
+        covers = getattr(self.cost, "covers", None)
+        return covers is not None and covers(self.band, i0 + self.shift, i1 + self.shift)
+
+    @property
+    def kept_bytes(self) -> int:
+        return int(getattr(self.cost, "kept_bytes", 0))
+
+
 def pass_confidence(result, fps: float, **kwargs) -> Confidence:
     """:func:`row_confidence` of a :class:`splicer.align.PassResult` (its band, path, costs, ends).
 
@@ -396,9 +418,10 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
         raise ValueError(f"{result.name} has no local cost to measure confidence on")
     band = result.band
     n = band.n
+    cost = getattr(result, "kept_cost", None) or result.local_cost  # pass 1's kept float32 costs: the same values
     cov = getattr(result, "covered", None) or (0, n - 1)
     if getattr(result, "ends", "fixed") == "open" or tuple(cov) == (0, n - 1):
-        return row_confidence(lambda i0, i1: result.local_cost(band, i0, i1), band, result.path, fps,
+        return row_confidence(_PassRows(cost, band, 0), band, result.path, fps,
                               uncovered_cost=getattr(result, "uncovered_cost", 0.0),
                               step_penalty=getattr(result, "step_penalty", 0.0),
                               horizontal_weight=getattr(result, "horizontal_weight", 1.0), **kwargs)
@@ -407,7 +430,7 @@ def pass_confidence(result, fps: float, **kwargs) -> Confidence:
     c0 = int(result.path[0, 1])
     sub = Band(n=b - a + 1, m=int(result.path[-1, 1]) - c0 + 1, width=band.width,
                lo=band.lo[a:b + 1] - c0, hi=band.hi[a:b + 1] - c0)
-    conf = row_confidence(lambda i0, i1: result.local_cost(band, i0 + a, i1 + a), sub,
+    conf = row_confidence(_PassRows(cost, band, a), sub,
                           result.path - np.array([a, c0]), fps, step_penalty=getattr(result, "step_penalty", 0.0),
                           horizontal_weight=getattr(result, "horizontal_weight", 1.0), **kwargs)
     def put(x, fill):

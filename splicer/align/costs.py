@@ -158,7 +158,7 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
     win = window_points(markers.points, markers.up)
     return PhaseFeatures(
         np.ascontiguousarray(vel), np.ascontiguousarray(acc), dead_zone * rms_v, dead_zone * rms_a, win,
-        np.ascontiguousarray(markers.heading, dtype=np.float64), markers.up,
+        np.array(markers.heading, dtype=np.float64), markers.up,  # a writable copy: one compiled D1 kernel, not two
         sign_ramp * rms_v, sign_ramp * rms_a,
     )
 

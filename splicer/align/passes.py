@@ -16,6 +16,7 @@ from ..defaults import DEAD_ZONE, SIGN_RAMP, SMOOTH_S
 from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from ..errors import BandError
 from ..rig.markers import Markers
+from .costcache import CACHE_BYTES, CachedBandCost
 from .costs import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
 from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT, UNCOVERED_QUANTILE, coarse_rate,
                       d1_sample, offset_band, uncovered_penalty)
@@ -61,6 +62,10 @@ class PassResult:
         Frame rate of the pass's sequences, when recorded.
     notes : tuple of str
         Fallbacks the pass took (for the report's warnings).
+    kept_cost : CachedBandCost or None
+        Pass 1: ``local_cost`` with the rows the DTW computed kept as float32
+        (:mod:`splicer.align.costcache`), for the readers that store float32 anyway (the
+        expected path, the confidence); ``local_cost`` itself always computes afresh.
     """
 
     path: np.ndarray
@@ -76,6 +81,7 @@ class PassResult:
     located: object = None
     fps: float | None = None
     notes: tuple = ()
+    kept_cost: object = None
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
@@ -100,7 +106,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           coarse_width: float | None = None, progress=None, ends: str = "fixed", offset_s: float | None = None,
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
-          horizontal_weight: float | None = None, guide: np.ndarray | None = None) -> PassResult:
+          horizontal_weight: float | None = None, guide: np.ndarray | None = None,
+          cache_bytes: int = CACHE_BYTES) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -158,6 +165,10 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         frame on the same body frame), in ``(0, 1]``.  Default: 1 (the paper) with fixed
         ends, :data:`OPEN_HORIZONTAL_WEIGHT` with open ends, where a full weight makes a path
         that skips hands material cheaper than one that covers it.
+    cache_bytes : int
+        The full-rate pass keeps up to this many bytes of its local costs (float32, 4 bytes a
+        band cell; :class:`splicer.align.costcache.CachedBandCost`) so that the expected path
+        and the confidence read them instead of computing them again; 0 keeps none.
 
     Returns
     -------
@@ -173,7 +184,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                            coarse_fps=OPEN_COARSE_FPS if coarse_fps is None else coarse_fps,
                            coarse_width=coarse_width, progress=progress, offset_s=offset_s,
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
-                           max_coarse_cells=max_coarse_cells, step_penalty=step_penalty,
+                           max_coarse_cells=max_coarse_cells, step_penalty=step_penalty, cache_bytes=cache_bytes,
                            horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight)
     hw = 1.0 if horizontal_weight is None else float(horizontal_weight)
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
@@ -192,7 +203,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         cw = (coarse_width if coarse_width is not None else width) / factor
         coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone,
                        sign_ramp=sign_ramp, theta=theta,
-                       step_penalty=step_penalty, horizontal_weight=hw)
+                       step_penalty=step_penalty, horizontal_weight=hw, cache_bytes=0)
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints)
         except BandError:
@@ -202,13 +213,15 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     else:
         band = make_band(n, m, width, constraints)
     d1 = d1_cost(fb, fh, theta=theta)
-    res = _run(d1, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
+    kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
+    res = _run(kept, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw,
-                      notes=notes)
+                      notes=notes, kept_cost=kept)
 
 
 def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
-                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight):
+                offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight,
+                cache_bytes):
     n, m = body.n_frames, hands.n_frames
     cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
     factor = body.fps / cfps
@@ -252,10 +265,11 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ra
     fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
     fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
     d1 = d1_cost(fb, fh, theta=theta)
-    res = _run(d1, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
+    kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
+    res = _run(kept, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
                horizontal_weight=horizontal_weight)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
-                      float(horizontal_weight), located, body.fps, notes)
+                      float(horizontal_weight), located, body.fps, notes, kept)
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

@@ -317,6 +317,7 @@ def expected_frames(p, *, temperature: float, radius: int, progress=None) -> tup
     """
     if temperature == 0:
         return path_median(p.path, p.band.n), None
-    post = path_posterior(p.local_cost, p.band, p.path, temperature=temperature, radius=radius,
+    cost = getattr(p, "kept_cost", None) or p.local_cost  # pass 1's kept float32 costs: the tube stores float32
+    post = path_posterior(cost, p.band, p.path, temperature=temperature, radius=radius,
                           step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight, progress=progress)
     return post.mean, post

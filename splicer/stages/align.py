@@ -91,6 +91,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     """
     from ..align.passes import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
     from ..align.band import band_frames
+    from ..align.band_width import pass_widths
     from ..align.confidence import pass_confidence, posterior_confidence
     from ..align.noise import matched_smoothing
     from ..align.posterior import expected_frames
@@ -113,10 +114,9 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
 
     def run_pass1(mode: str, guide_path=None):
         open_ends = mode == "open"
-        band1 = opts.band1 if opts.band1 is not None else (D.OPEN_BAND1 if open_ends else D.BAND1)
-        w1 = band_frames(band1, n=n, fps=fps)
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
         guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
+        w1, w2 = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=open_ends, guided=guided)
         p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
                   sign_ramp=opts.sign_ramp,
                   theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
@@ -125,7 +125,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
                   coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
                   guide=None if open_ends else guide_path,
                   progress=lambda f: log.progress(f"{s}: pass 1", f))
-        return p, w1, cons
+        return p, w1, w2, cons
 
     p1 = p2 = posterior = None
     covered = None
@@ -133,14 +133,16 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     try:
         if opts.passes in ("pass1", "both"):
             log.progress(f"{s}: pass 1", 0.0)
-            p1, w1, cons = run_pass1(used, guide)
+            p1, w1, w2, cons = run_pass1(used, guide)
             if ends == "auto":
                 why = _choose_ends(p1, n, m, fps, markers.pins)
                 if why is not None:
                     used = "fixed"
+                    if p1.kept_cost is not None:
+                        p1.kept_cost.release()  # the open-ended pass is dropped: free its kept costs first
                     # takes that start and end together: the open-ended path (corner to corner) guides
                     # the band; an overlap too short to trust: the diagonal's band (the paper)
-                    p1, w1, cons = run_pass1("fixed", p1.path if why == _TOGETHER_WHY else guide)
+                    p1, w1, w2, cons = run_pass1("fixed", p1.path if why == _TOGETHER_WHY else guide)
                     if why.startswith("!"):
                         log.note(f"{s} side: {why[1:]}")
             for msg in p1.notes:
@@ -160,7 +162,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         else:
             w1 = band_frames(opts.band1 if opts.band1 is not None else D.BAND1, n=n, fps=fps)
             cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
-        w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
+            w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
         if opts.passes == "both":
             log.progress(f"{s}: pass 2", 0.0)
             filled = hold_ends(per_frame)
@@ -185,10 +187,14 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     conf = None
     if posterior is not None:  # the expected path's own spread (measured: README, Accuracy)
         conf = posterior_confidence(posterior, fps)
+        if p1.kept_cost is not None:
+            p1.kept_cost.release()  # pass 1's kept costs (splicer.align.costcache): no later stage reads them
         log.tick("confidence")
     elif p1 is not None:  # the best path alone (temperature 0): the cost landscape around it
         log.progress(f"{s}: confidence", 0.0)
         conf = pass_confidence(p1, fps)
+        if p1.kept_cost is not None:
+            p1.kept_cost.release()  # pass 1's kept costs (splicer.align.costcache): no later stage reads them
         log.tick("confidence")
     if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:
         log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "

@@ -80,7 +80,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hands-side", choices=("left", "right"), help="side of a hand-only file whose joint names do not say")
     p.add_argument("--band", "--band1", dest="band1", default=None, type=_band_text,
                    help="pass-1 band width: frames (120), share of the body take (30%%) or seconds (20s); default 3s "
-                        "around the located overlap with open ends, 30%% with fixed ends")
+                        "around the located overlap with open ends, 30%% with fixed ends (takes over 2 minutes: 4s around "
+                        "the guide path)")
     p.add_argument("--ends", choices=("auto", "open", "fixed"), default=None,
                    help="open: find where the takes overlap (the hands take may start early, stop late or cover part "
                         "of the body); fixed: first frames match, last frames match (the paper); auto (default): open, "

@@ -251,8 +251,11 @@ def main(argv=None) -> int:
     old_handlers = _install_handlers()
     tx = Transaction()
     try:
-        from .io.motion_io import write_motion
-        from .pipeline import splice
+        from .io.atomic import _signals_held
+
+        with _signals_held():  # a signal during the imports takes effect after them, not half-way through
+            from .io.motion_io import write_motion
+            from .pipeline import splice
 
         out = Path(args.output)
         outputs = [("-o", args.output)] + [(o, v) for o, v in (("--report", args.report), ("--plot", args.plot)) if v]
@@ -260,7 +263,8 @@ def main(argv=None) -> int:
             _check_output(Path(o), [args.body, args.hands, args.constraints, args.hands_markers, args.body_markers])
         _check_distinct(outputs)
         t1 = time.perf_counter()
-        _start_numba_without_scipy()
+        with _signals_held():  # numba half-initialised by an interrupt can crash the interpreter's exit
+            _start_numba_without_scipy()
         before = {"numba": time.perf_counter() - t1}
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # warnings are collected into the report and the summary

@@ -283,7 +283,11 @@ def main(argv=None) -> int:
                 _write_json(result.report.to_dict(), Path(args.report))
             after["write"] = time.perf_counter() - t1
             if args.plot:
-                from .plot import plot_alignment
+                with _signals_held():  # an interrupt inside matplotlib's C extensions' start-up is an ImportError
+                    import matplotlib.backends.backend_agg  # noqa: F401
+                    import matplotlib.figure  # noqa: F401
+
+                    from .plot import plot_alignment
 
                 progress("plot", 0.5)
                 t1 = time.perf_counter()

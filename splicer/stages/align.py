@@ -159,10 +159,9 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
                     per_frame[:covered[0]] = np.nan
                     per_frame[covered[1] + 1:] = np.nan
             log.tick("pass1")
-        else:
-            w1 = band_frames(opts.band1 if opts.band1 is not None else D.BAND1, n=n, fps=fps)
+        else:  # pass 2 alone runs in pass 1's band (the paper's 30 % unless given)
+            w1, _ = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=False, guided=False)
             cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
-            w2 = w1 * D.BAND2_PER_BAND1 if opts.band2 is None else band_frames(opts.band2, n=n, fps=fps)
         if opts.passes == "both":
             log.progress(f"{s}: pass 2", 0.0)
             filled = hold_ends(per_frame)
@@ -187,12 +186,10 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     conf = None
     if posterior is not None:  # the expected path's own spread (measured: README, Accuracy)
         conf = posterior_confidence(posterior, fps)
-        if p1.kept_cost is not None:
-            p1.kept_cost.release()  # pass 1's kept costs (splicer.align.costcache): no later stage reads them
-        log.tick("confidence")
     elif p1 is not None:  # the best path alone (temperature 0): the cost landscape around it
         log.progress(f"{s}: confidence", 0.0)
         conf = pass_confidence(p1, fps)
+    if p1 is not None:
         if p1.kept_cost is not None:
             p1.kept_cost.release()  # pass 1's kept costs (splicer.align.costcache): no later stage reads them
         log.tick("confidence")

@@ -16,11 +16,9 @@ from dataclasses import replace
 import numpy as np
 
 from .log import Log
+from .report import LOW_CONFIDENCE_S, _worst_ranges
 
 __all__ = ["hands_disagreement", "cross_check"]
-
-#: disagreement above which the summary names the stretches, seconds (the low-confidence limit)
-DISAGREE_S = 0.1
 
 
 def hands_disagreement(hands_frame_a, hands_frame_b, hands_fps: float) -> np.ndarray:
@@ -60,7 +58,8 @@ def cross_check(sides: dict, log: Log | None = None) -> dict:
     sides : dict of str -> SideResult
         The finished sides of a splice (:func:`splicer.pipeline.splice`).
     log : Log, optional
-        Receives a summary note when the hands disagree by more than :data:`DISAGREE_S`.
+        Receives a summary note when the hands disagree by more than
+        :data:`splicer.stages.report.LOW_CONFIDENCE_S` (the report's ``disagree`` ranges).
 
     Returns
     -------
@@ -81,13 +80,13 @@ def cross_check(sides: dict, log: Log | None = None) -> dict:
     for s, r in ((sa, ra), (sb, rb)):
         conf = r.alignment.confidence.with_disagreement(d)
         out[s] = replace(r, alignment=replace(r.alignment, confidence=conf))
-    apart = frame_ranges(np.nan_to_num(d, nan=0.0) > DISAGREE_S, min_gap=2)
+    apart = frame_ranges(np.nan_to_num(d, nan=0.0) > LOW_CONFIDENCE_S, min_gap=2)
     if apart:
         n = len(d)
-        worst = sorted(apart, key=lambda ab: -float(np.nanmax(d[ab[0]:ab[1] + 1])))[:3]
+        worst = _worst_ranges(apart, d)
         where = ", ".join(f"{a}-{b} (up to {np.nanmax(d[a:b + 1]):.2f} s)" for a, b in worst)
         share = sum(b - a + 1 for a, b in apart) / n
-        log.note(f"the {sa} and {sb} hands' alignments disagree by more than {DISAGREE_S:g} s in "
+        log.note(f"the {sa} and {sb} hands' alignments disagree by more than {LOW_CONFIDENCE_S:g} s in "
                  f"{100 * share:.0f}% of body frames ({where}): one of them is off there; both sides count "
                  "those frames as low confidence")
     return out

@@ -82,6 +82,11 @@ class SpliceResult:
 LOW_CONFIDENCE_S = 0.1
 
 
+def _worst_ranges(ranges: list, values: np.ndarray, k: int = 3) -> list:
+    """The ``k`` ``[first, last]`` ranges whose largest value (NaN ignored) is largest, largest first."""
+    return sorted(ranges, key=lambda ab: -float(np.nanmax(values[ab[0]:ab[1] + 1])))[:k]
+
+
 def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
     """Report keys for covered/uncovered frames and confidence; warnings for the summary."""
     from ..transfer.timemap import frame_ranges
@@ -109,8 +114,7 @@ def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
         if conf.disagreement_s is not None:  # the other hand's time map (stages.crosscheck)
             out["disagree"] = frame_ranges(np.nan_to_num(conf.disagreement_s, nan=0.0) > LOW_CONFIDENCE_S, min_gap=2)
         if low:
-            fps = r.markers.spaces.body_fps
-            worst = sorted(low, key=lambda ab: -float(np.nanmax(conf.est_error_s[ab[0]:ab[1] + 1])))[:3]
+            worst = _worst_ranges(low, conf.est_error_s)
             where = ", ".join(f"{a}-{b} (~{np.nanmax(conf.est_error_s[a:b + 1]):.2f} s)" for a, b in worst)
             share = sum(b - a + 1 for a, b in low) / n
             log.note(f"{r.side} side: low confidence in {100 * share:.0f}% of body frames; worst {where}; a pin "

@@ -53,13 +53,15 @@ def _band_text(text: str) -> str:
     return text
 
 
-def _noise_ratio(text: str) -> float:
+def _noise_ratio(text: str) -> float | str | None:
+    if text in ("auto", "off"):
+        return None if text == "off" else text
     try:
         v = float(text)
     except ValueError:
         v = math.nan
     if not (v >= 1.0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"must be a number >= 1 (e.g. 1.2), not {text!r}")
+        raise argparse.ArgumentTypeError(f"must be auto, off or a number >= 1 (e.g. 1.2), not {text!r}")
     return v
 
 
@@ -89,9 +91,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "implausibly short (with a warning)")
     p.add_argument("--offset", type=float, default=None, metavar="SECONDS",
                    help="open ends: body frame 0 shows this hands time (a starting guess, e.g. from timecode)")
-    p.add_argument("--noise-ratio", type=_noise_ratio, default=None, metavar="R",
+    p.add_argument("--noise-ratio", type=_noise_ratio, default="auto", metavar="R",
                    help="when one take's arm is noisier (a second performance), smooth both more until their "
-                        "direction changes agree within this factor (e.g. 1.2); default off, the summary suggests it")
+                        "direction changes agree within this factor: auto (default: when they differ over 1.5x, "
+                        "until within 1.2x), a number R (whenever over R), or off")
     p.add_argument("--band2", default=None, type=_band_text, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")

@@ -33,7 +33,7 @@ class SpliceOptions:
     sign_ramp: float = D.SIGN_RAMP  # the sign rises to 1 over this share of the RMS speed past the dead zone; 0 = step
     temperature_s: float = D.PASS1_TEMPERATURE_S  # pass 1: a path costing 1 D1 unit more per frame for this long is e times less likely; 0 = the best path alone
     posterior_radius_s: float = D.POSTERIOR_RADIUS_S  # pass 1: hands time each side of the best path weighed, seconds
-    noise_ratio: float | None = D.NOISE_RATIO  # e.g. 1.2: smooth both takes more while one's signs flip this many times as often; None: off
+    noise_ratio: float | str | None = "auto"  # "auto": when one take's signs flip over NOISE_TRIGGER times as often, smooth both until within NOISE_RATIO; a number R: whenever over R, until within R; None: off
     timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
     blend_window: int = D.BLEND_WINDOW_FRAMES  # median merge: frames blended each side of a jump
     uncovered_blend_s: float = 0.25  # body frames without hands material: blend in/out over this, seconds
@@ -93,8 +93,9 @@ def resolve_options(options: SpliceOptions | None = None, overrides: dict | None
                                       or not math.isfinite(opts.offset_s)):
         raise SplicerError(f"offset_s must be a number of seconds, not {opts.offset_s!r}")
     nr = opts.noise_ratio
-    if nr is not None and (isinstance(nr, bool) or not isinstance(nr, (int, float)) or not (nr >= 1 and math.isfinite(nr))):
-        raise SplicerError(f"noise_ratio must be a number >= 1 or None, not {nr!r}")
+    if nr is not None and nr != "auto" and (isinstance(nr, bool) or not isinstance(nr, (int, float))
+                                            or not (nr >= 1 and math.isfinite(nr))):
+        raise SplicerError(f"noise_ratio must be 'auto', a number >= 1 or None (off), not {nr!r}")
     if isinstance(opts.blend_window, bool) or not (isinstance(opts.blend_window, int) and opts.blend_window >= 0):
         raise SplicerError(f"blend_window must be a whole number of frames >= 0, not {opts.blend_window!r}")
     return opts

@@ -152,8 +152,8 @@ def test_noise_ratio_must_be_at_least_one(value, tmp_path, capsys):
 
 
 def test_noise_ratio_smooths_a_noisier_hands_take(tmp_path, capsys):
-    """The bundled pair with 2 degrees of smoothed noise on the hands take's arm: the summary
-    suggests --noise-ratio, and with it the markers are smoothed more."""
+    """The bundled pair with 2 degrees of smoothed noise on the hands take's arm: by default the
+    markers are smoothed more and the summary says so; with --noise-ratio off it suggests auto."""
     import numpy as np
 
     from splicer.filters import gaussian_filter1d
@@ -171,6 +171,9 @@ def test_noise_ratio_smooths_a_noisier_hands_take(tmp_path, capsys):
     noisy = tmp_path / "noisy_hands.bvh"
     write_bvh(hands.with_channels(ch), noisy)
     code, out, _ = _run([BODY, noisy, "-o", tmp_path / "a.bvh"], capsys)
-    assert code == 0 and "looks noisier" in out and "try --noise-ratio 1.2" in out
-    code, out, _ = _run([BODY, noisy, "-o", tmp_path / "b.bvh", "--noise-ratio", "1.2"], capsys)
-    assert code == 0 and "markers smoothed over" in out
+    assert code == 0 and "markers smoothed over" in out and "--noise-ratio off keeps them" in out
+    code, out, _ = _run([BODY, noisy, "-o", tmp_path / "b.bvh", "--noise-ratio", "off"], capsys)
+    assert code == 0 and "looks noisier" in out and "try --noise-ratio auto" in out
+    assert "markers smoothed over" not in out
+    code, out, _ = _run([BODY, noisy, "-o", tmp_path / "c.bvh", "--noise-ratio", "1.2"], capsys)
+    assert code == 0 and "markers smoothed over" in out and "keeps them" not in out

@@ -130,9 +130,24 @@ def _swinging(t: np.ndarray, *, noise_deg: float = 0.0, seed: int = 0) -> Marker
 def test_sign_change_rate_counts_reversals_per_second():
     t = np.arange(600) / 30.0
     pts = np.zeros((600, 4, 3))
-    pts[:, :, 2] = np.sin(2 * np.pi * 1.0 * t + 0.3)[:, None]  # every marker's z: 2 reversals a second
+    pts[:, :, 1] = np.sin(2 * np.pi * 1.0 * t + 0.3)[:, None]  # every marker's height: 2 reversals a second
     mk = Markers(pts, np.zeros((600, 3)), np.zeros(600), 1, 30.0, "left")
-    assert sign_change_rate(mk) == pytest.approx(2.0 / 3.0, abs=0.02)  # 4 of 12 coordinates move
+    assert sign_change_rate(mk) == pytest.approx(2.0 / 3.0, abs=0.02)  # the vertical: a third of the weight
+    pts = np.zeros((600, 4, 3))
+    pts[:, :, 2] = np.sin(2 * np.pi * 1.0 * t + 0.3)[:, None]  # horizontal (z): one principal axis
+    assert sign_change_rate(Markers(pts, np.zeros((600, 3)), np.zeros(600), 1, 30.0, "left")) == pytest.approx(
+        2.0 / 3.0, abs=0.02)
+
+
+def test_sign_change_rate_does_not_depend_on_facing():
+    t = np.arange(900) / 30.0
+    mk = _swinging(t, noise_deg=1.0, seed=2)
+    rates = []
+    for deg in (0.0, 30.0, 47.0, 90.0):
+        c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+        turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])  # about y, the up axis
+        rates.append(sign_change_rate(Markers(mk.points @ turn.T, mk.shoulder, mk.heading, 1, 30.0, "left")))
+    assert max(rates) - min(rates) < 1e-9 * rates[0], rates
 
 
 def test_swing_rate_follows_tempo_not_noise():
@@ -155,8 +170,8 @@ def test_matched_smoothing_keeps_clean_pairs_and_tempo_differences():
 def test_matched_smoothing_smooths_a_noisy_take_more_when_asked():
     t = np.arange(900) / 30.0
     body, noisy = _swinging(t), _swinging(t, noise_deg=2.0, seed=3)
-    s, excess = matched_smoothing(body, noisy, ratio=1.2)
-    # 2.13 changes a second against 1.69 at 0.025 s; at 0.05 s 1.82 against 1.79
+    s, excess = matched_smoothing(body, noisy, ratio=1.2, trigger=None)
     assert excess > 1.2 and s == pytest.approx(0.05)
-    assert matched_smoothing(noisy, body, ratio=1.2)[0] == pytest.approx(0.05)  # either take
-    assert matched_smoothing(body, noisy) == (0.025, pytest.approx(excess))  # the default: off, the excess measured
+    assert matched_smoothing(noisy, body, ratio=1.2, trigger=None)[0] == pytest.approx(0.05)  # either take
+    assert matched_smoothing(body, noisy, ratio=None) == (0.025, pytest.approx(excess))  # off: the excess measured
+    assert excess < 1.7 and matched_smoothing(body, noisy)[0] == 0.025  # the default: only over the 1.7 trigger

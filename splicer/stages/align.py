@@ -13,7 +13,7 @@ from ..options import SpliceOptions
 from .markers import SideMarkers
 from .log import Log
 
-__all__ = ['Alignment', 'align_side', 'agree_ends']
+__all__ = ['Alignment', 'phase_smoothing', 'align_side', 'agree_ends']
 
 
 # ---------------------------------------------------------------- stage 4: align
@@ -64,8 +64,61 @@ def _pin_error(e: SplicerError, pins: tuple[Pin, ...], side: str) -> SplicerErro
     return type(e)(f"{side} side: {e}")
 
 
+def phase_smoothing(markers: dict, opts: SpliceOptions, log: Log | None = None) -> dict:
+    """The marker smoothing each side's phase metric uses (noise matching, ``opts.noise_ratio``).
+
+    A second performance or a jittery solve leaves one take's arm noisier than the other's,
+    and D1 then matches noise (:func:`splicer.align.noise.matched_smoothing`).  Both hands come
+    from one hands take, so with ``noise_ratio="auto"`` (the default) whether a take is noisier
+    is decided once for the pair: when either side's direction changes differ by more than
+    :data:`splicer.defaults.NOISE_TRIGGER`, each side is smoothed until its two rates agree
+    within :data:`splicer.defaults.NOISE_RATIO`.  A number ``R`` matches each side whenever its
+    rates differ by more than ``R``; ``None`` keeps ``opts.smooth_s``.
+
+    Parameters
+    ----------
+    markers : dict of str -> SideMarkers
+    opts : SpliceOptions
+    log : Log, optional
+        Gets a note for each side smoothed more (or, with noise matching off, that looks noisier).
+
+    Returns
+    -------
+    dict of str -> float
+        Each side's smoothing, seconds.
+    """
+    from ..align.noise import matched_smoothing
+
+    log = log or Log()
+    auto = opts.noise_ratio == "auto"
+    ratio = D.NOISE_RATIO if auto else opts.noise_ratio
+    plain, excess = {}, {}
+    for s, mk in markers.items():  # the rates at the default smoothing: no search yet
+        plain[s], excess[s] = matched_smoothing(mk.body, mk.hands, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+                                                ratio=None)
+    noisy = auto and max(excess.values(), default=1.0) > D.NOISE_TRIGGER
+    out = {}
+    for s, mk in markers.items():
+        if noisy or (ratio is not None and not auto):
+            out[s], _ = matched_smoothing(mk.body, mk.hands, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
+                                          ratio=ratio, trigger=1.0 if noisy else None)
+        else:
+            out[s] = plain[s]
+        if out[s] != opts.smooth_s:
+            log.note(f"{s} side: one take's arm is noisier (its motion changes direction {excess[s]:.1f}x as often, "
+                     f"tempo allowed for; a second performance or a jittery solve?): markers smoothed over "
+                     f"{out[s]:g} s instead of {opts.smooth_s:g} s for the phase metric"
+                     + (" (--noise-ratio off keeps them)" if auto else ""))
+        elif opts.noise_ratio is None and excess[s] > D.NOISE_WARN:  # noise matching switched off
+            log.note(f"{s} side: one take's arm looks noisier (its motion changes direction {excess[s]:.1f}x as "
+                     "often, tempo allowed for; a second performance or a jittery solve?): if the alignment is "
+                     "off, try --noise-ratio auto")
+    return out
+
+
 def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
-               offset_s: float | None = None, guide: np.ndarray | None = None) -> Alignment:
+               offset_s: float | None = None, guide: np.ndarray | None = None,
+               smooth_s: float | None = None) -> Alignment:
     """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed, with a confidence.
 
     Parameters
@@ -84,6 +137,10 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         searches instead of the diagonal's (:func:`splicer.align.passes.pass1`).  With
         ``ends="auto"``, an open-ended pass 1 that found both corners guides the end-to-end one.
 
+    smooth_s : float, optional
+        The phase metric's marker smoothing, seconds (:func:`phase_smoothing` of the pair);
+        default: this side's own noise matching.
+
     Raises
     ------
     SplicerError
@@ -93,7 +150,6 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     from ..align.band import band_frames
     from ..align.band_width import pass_widths
     from ..align.confidence import pass_confidence, posterior_confidence
-    from ..align.noise import matched_smoothing
     from ..align.posterior import expected_frames
 
     log = log or Log()
@@ -101,16 +157,8 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     n, m = bmk.n_frames, hmk.n_frames
     fps = markers.spaces.body_fps
 
-    smooth_s, noisier = matched_smoothing(bmk, hmk, smooth_s=opts.smooth_s, dead_zone=opts.dead_zone,
-                                          ratio=opts.noise_ratio)
-    if smooth_s != opts.smooth_s:
-        log.note(f"{s} side: one take's arm is noisier (its motion changes direction {noisier:.1f}x as often, "
-                 f"tempo allowed for): markers smoothed over {smooth_s:g} s instead of {opts.smooth_s:g} s "
-                 "for the phase metric")
-    elif opts.noise_ratio is None and noisier > D.NOISE_WARN:  # the user has not chosen a ratio yet
-        log.note(f"{s} side: one take's arm looks noisier (its motion changes direction {noisier:.1f}x as often, "
-                 "tempo allowed for; a second performance or a jittery solve?): if the alignment is off, "
-                 "try --noise-ratio 1.2")
+    if smooth_s is None:  # one side alone: its own noise matching
+        smooth_s = phase_smoothing({s: markers}, opts, log)[s]
 
     def run_pass1(mode: str, guide_path=None):
         open_ends = mode == "open"
@@ -201,7 +249,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
 
 
 def agree_ends(aligned: dict, markers: dict, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
-               offset_s: float | None = None) -> dict:
+               offset_s: float | None = None, smooth: dict | None = None) -> dict:
     """One end condition for both hands (``ends="auto"``): the takes' overlap is the takes', not an arm's.
 
     Both hands come from one hands take, so whether it starts and ends with the body is one
@@ -221,6 +269,8 @@ def agree_ends(aligned: dict, markers: dict, opts: SpliceOptions, log: Log | Non
         Each side's markers (to align a side again).
     opts, log, ends, offset_s
         As given to :func:`align_side`.
+    smooth : dict of str -> float, optional
+        Each side's ``smooth_s`` as given to :func:`align_side` (:func:`phase_smoothing`).
 
     Returns
     -------
@@ -238,7 +288,7 @@ def agree_ends(aligned: dict, markers: dict, opts: SpliceOptions, log: Log | Non
             log.note(f"{s} side: the {' and '.join(fixed)} side's alignment runs end to end; both hands come from one "
                      "take, so this side is aligned end to end too (--ends open keeps its open ends)")
             out[s] = align_side(markers[s], opts, log, ends="fixed", offset_s=offset_s,
-                                guide=aligned[fixed[0]].pass1.path)
+                                guide=aligned[fixed[0]].pass1.path, smooth_s=(smooth or {}).get(s))
     return out
 
 

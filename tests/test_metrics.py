@@ -175,3 +175,30 @@ def test_matched_smoothing_smooths_a_noisy_take_more_when_asked():
     assert matched_smoothing(noisy, body, ratio=1.2, trigger=None)[0] == pytest.approx(0.05)  # either take
     assert matched_smoothing(body, noisy, ratio=None) == (0.025, pytest.approx(excess))  # off: the excess measured
     assert excess < 1.7 and matched_smoothing(body, noisy)[0] == 0.025  # the default: only over the 1.7 trigger
+
+
+def test_phase_smoothing_decides_once_for_both_hands():
+    """Both hands come from one hands take: one side over the 1.7x trigger smooths both."""
+    from types import SimpleNamespace
+
+    from splicer.options import SpliceOptions
+    from splicer.stages.align import phase_smoothing
+    from splicer.stages.log import Log
+
+    t = np.arange(900) / 30.0
+    body = _swinging(t)
+    # excess 1.26 (2 degrees of arm noise) and 1.86 (8 degrees), measured
+    left = SimpleNamespace(body=body, hands=_swinging(t, noise_deg=2.0, seed=3))
+    right = SimpleNamespace(body=body, hands=_swinging(t, noise_deg=8.0, seed=3))
+    log = Log()
+    assert phase_smoothing({"left": left, "right": right}, SpliceOptions(), log) == {
+        "left": pytest.approx(0.05), "right": pytest.approx(0.1)}
+    assert sum("markers smoothed over" in n for n in log.warnings) == 2
+    assert phase_smoothing({"left": left}, SpliceOptions()) == {"left": 0.025}  # alone: under the trigger
+    log = Log()
+    assert phase_smoothing({"left": left, "right": right}, SpliceOptions(noise_ratio=None), log) == {
+        "left": 0.025, "right": 0.025}
+    assert [n.startswith("right side: one take's arm looks noisier") for n in log.warnings] == [True]
+    # a number: each side on its own, whenever over it, until within it (right: 1.86x, then under 1.5x at 0.05 s)
+    assert phase_smoothing({"left": left, "right": right}, SpliceOptions(noise_ratio=1.5)) == {
+        "left": 0.025, "right": pytest.approx(0.05)}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from .options import SpliceOptions, resolve_options
 # the private names are used by splice-markers, pairing, the plot and the tests
-from .stages.align import Alignment, _choose_ends, _cover_pins, _pin_error, agree_ends, align_side, phase_smoothing  # noqa: F401
+from .stages.align import Alignment, _choose_ends, _cover_pins, _pin_error, agree_ends, align_pair, align_side, phase_smoothing  # noqa: F401
 from .stages.crosscheck import cross_check, hands_disagreement
 from .stages.load import Inputs, load_inputs
 from .stages.log import Log
@@ -20,7 +20,7 @@ from .stages.rig import Conditioned, Rig, condition_hands, find_rig
 from .stages.transfer import Transfer, check_fingers, time_map, transfer_side
 
 __all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
-           "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "agree_ends", "time_map", "transfer_side",
+           "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "transfer_side",
            "check_fingers", "cross_check", "hands_disagreement", "build_report", "splice"]
 
 
@@ -65,9 +65,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     ends = opts.ends or inputs.config.ends or "auto"
     offset_s = opts.offset_s if opts.offset_s is not None else inputs.config.offset_s
     marks = {s: side_markers(inputs, rig, s, log) for s in rig.sides}
-    smooth = phase_smoothing(marks, opts, log)  # a noisier hands take is one decision for both arms
-    aligned = {s: align_side(marks[s], opts, log, ends=ends, offset_s=offset_s, smooth_s=smooth[s]) for s in rig.sides}
-    aligned = agree_ends(aligned, marks, opts, log, ends=ends, offset_s=offset_s, smooth=smooth)
+    aligned = align_pair(marks, opts, log, ends=ends, offset_s=offset_s)  # both arms; one noise decision
     for s in rig.sides:
         markers, alignment = marks[s], aligned[s]
         tm = time_map(alignment, markers, opts)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -13,7 +13,7 @@ from ..options import SpliceOptions
 from .markers import SideMarkers
 from .log import Log
 
-__all__ = ['Alignment', 'phase_smoothing', 'align_side', 'agree_ends']
+__all__ = ['Alignment', 'phase_smoothing', 'align_side', 'agree_ends', 'align_pair']
 
 
 # ---------------------------------------------------------------- stage 4: align
@@ -333,3 +333,72 @@ def _cover_pins(covered: tuple, pins, n: int) -> tuple:
     for p in pins:
         a, b = min(a, p.body), max(b, p.body)
     return (max(a, 0), min(b, n - 1))
+
+
+def _disagreement(aligned: dict, fps: float) -> tuple[float, float]:
+    """Mean seconds between the two sides' time maps, and the share of frames over
+    :data:`LOW_CONFIDENCE_S`, over the body frames both cover (NaN, NaN: none)."""
+    from .report import LOW_CONFIDENCE_S
+
+    a, b = (np.asarray(x.per_frame, dtype=np.float64) for x in aligned.values())
+    d = np.abs(a - b) / fps
+    d = d[np.isfinite(d)]
+    if not d.size:
+        return float("nan"), float("nan")
+    return float(d.mean()), float(np.mean(d > LOW_CONFIDENCE_S))
+
+
+def align_pair(markers: dict, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
+               offset_s: float | None = None) -> dict:
+    """Align every side (:func:`phase_smoothing`, :func:`align_side`, :func:`agree_ends`), with a
+    second opinion on the smoothing when the two hands disagree.
+
+    Both hands come from one hands take, so where their time maps part, one of them is off
+    (:mod:`splicer.stages.crosscheck`).  With ``noise_ratio="auto"``, two sides whose time maps
+    are more than 0.1 s (:data:`~splicer.stages.report.LOW_CONFIDENCE_S`) apart in over
+    :data:`splicer.defaults.RECHECK_SHARE` of the body frames, and noise matching not
+    triggered, the pair is aligned again with each side matched at
+    :data:`splicer.defaults.NOISE_RATIO` (a second performance whose excess stayed under the
+    trigger), and the alignment whose hands agree better (smaller mean disagreement) is kept,
+    with a note.
+
+    Returns
+    -------
+    dict of str -> Alignment
+    """
+    from .report import LOW_CONFIDENCE_S
+
+    log = log or Log()
+    before = len(log.warnings)
+    smooth = phase_smoothing(markers, opts, log)
+    aligned = _align_all(markers, smooth, opts, log, ends, offset_s)
+    if opts.noise_ratio != "auto" or len(markers) != 2 or opts.passes == "pass2":
+        return aligned
+    fps = next(iter(markers.values())).spaces.body_fps
+    mean, share = _disagreement(aligned, fps)
+    if not share > D.RECHECK_SHARE:
+        return aligned
+    if any(v != opts.smooth_s for v in smooth.values()):
+        return aligned  # matched already (the other way round, back to the default smoothing, was right 2 of 4 times)
+    second = Log(log._progress)  # the other choice's own notes, kept only with its alignment
+    other = phase_smoothing(markers, replace(opts, noise_ratio=D.NOISE_RATIO), second)
+    if other == smooth:
+        return aligned
+    again = _align_all(markers, other, opts, second, ends, offset_s)
+    log.tick("second opinion")
+    mean2, _ = _disagreement(again, fps)
+    widths = ", ".join(f"{s} {other[s]:g} s" for s in other)
+    if mean2 < mean:
+        del log.warnings[before:]
+        log.warnings.extend(second.warnings)
+        log.note(f"the hands' time maps disagreed by over {LOW_CONFIDENCE_S:g} s in {share:.0%} of body frames "
+                 f"(mean {mean:.2f} s); aligned again with the phase metric's markers smoothed over {widths}, they "
+                 f"agree better (mean {mean2:.2f} s), and that alignment is kept")
+        return again
+    return aligned
+
+
+def _align_all(markers, smooth, opts, log, ends, offset_s) -> dict:
+    aligned = {s: align_side(mk, opts, log, ends=ends, offset_s=offset_s, smooth_s=smooth[s])
+               for s, mk in markers.items()}
+    return agree_ends(aligned, markers, opts, log, ends=ends, offset_s=offset_s, smooth=smooth)

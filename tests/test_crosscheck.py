@@ -123,3 +123,61 @@ def test_open_ends_asked_for_stay_open():
                ends="open")
     assert {s: x.alignment.ends for s, x in r.sides.items()} == {"left": "open", "right": "open"}
     assert not any("aligned end to end too" in w for w in r.report.to_dict()["warnings"])
+
+
+def test_disagreement_worked():
+    from types import SimpleNamespace
+
+    from splicer.stages.align import _disagreement
+
+    a = SimpleNamespace(per_frame=np.array([0.0, 1.0, 2.0, np.nan]))
+    b = SimpleNamespace(per_frame=np.array([0.0, 4.0, 2.3, 3.0]))
+    mean, share = _disagreement({"left": a, "right": b}, 30.0)  # 0, 0.1, 0.01 s apart; the NaN frame left out
+    assert mean == pytest.approx(0.11 / 3) and share == pytest.approx(0.0)  # 0.1 s is not over 0.1 s
+    b = SimpleNamespace(per_frame=np.array([0.0, 4.5, 2.3, 3.0]))
+    assert _disagreement({"left": a, "right": b}, 30.0)[1] == pytest.approx(1 / 3)
+
+
+def test_align_pair_keeps_the_alignment_whose_hands_agree(monkeypatch):
+    """The second opinion's decision rule with stand-in alignments: a pair whose hands part in
+    over 25 % of frames is aligned again with noise matching, and the better-agreeing pair wins."""
+    from types import SimpleNamespace
+
+    import splicer.stages.align as A
+    from splicer.options import SpliceOptions
+
+    n = 90
+    apart = {"left": np.arange(n, dtype=float), "right": np.arange(n) + 9.0}  # 0.3 s apart everywhere
+    close = {"left": np.arange(n, dtype=float), "right": np.arange(n) + 0.6}  # 0.02 s apart
+    runs = []
+
+    def fake_align_all(markers, smooth, opts, log, ends, offset_s):
+        runs.append(dict(smooth))
+        log.note(f"run {len(runs)}")
+        maps = apart if smooth["left"] == 0.025 else second
+        return {s: SimpleNamespace(per_frame=maps[s]) for s in markers}
+
+    monkeypatch.setattr(A, "_align_all", fake_align_all)
+    monkeypatch.setattr(A, "phase_smoothing", lambda mk, opts, log=None: {
+        s: (0.05 if opts.noise_ratio == 1.2 else 0.025) for s in mk})  # matched at 1.2: 0.05 s
+    markers = {s: SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0)) for s in ("left", "right")}
+
+    second = close
+    log = Log()
+    out = A.align_pair(markers, SpliceOptions(), log)
+    assert runs == [{"left": 0.025, "right": 0.025}, {"left": 0.05, "right": 0.05}]
+    assert out["right"].per_frame is close["right"]
+    assert log.warnings[0] == "run 2" and "agree better (mean 0.02 s)" in log.warnings[1]  # run 1's notes dropped
+
+    runs.clear()
+    second = {"left": np.arange(n, dtype=float), "right": np.arange(n) + 12.0}  # worse: the first is kept
+    log = Log()
+    assert A.align_pair(markers, SpliceOptions(), log)["right"].per_frame is apart["right"]
+    assert len(runs) == 2 and log.warnings == ["run 1"]
+
+    runs.clear()
+    assert A.align_pair(markers, SpliceOptions(noise_ratio=None), Log())["right"].per_frame is apart["right"]
+    assert len(runs) == 1  # noise matching off: no second opinion
+    runs.clear()
+    A.align_pair({"left": markers["left"]}, SpliceOptions(), Log())
+    assert len(runs) == 1  # one side: nothing to compare

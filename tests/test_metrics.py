@@ -177,6 +177,14 @@ def test_matched_smoothing_smooths_a_noisy_take_more_when_asked():
     assert excess < 1.7 and matched_smoothing(body, noisy)[0] == 0.025  # the default: only over the 1.7 trigger
 
 
+def test_matched_smoothing_of_a_take_smoothed_flat():
+    """12 frames: at a wider smoothing one take shows no direction changes at all (found by the
+    fuzz campaign as a division by zero); the widths go on, and a width is returned."""
+    t = np.arange(12) / 30.0
+    s, excess = matched_smoothing(_swinging(t), _swinging(t, noise_deg=4.0, seed=3), ratio=1.2, trigger=None)
+    assert excess > 1.2 and 0.025 < s <= 0.2
+
+
 def test_phase_smoothing_decides_once_for_both_hands():
     """Both hands come from one hands take: one side over the 1.7x trigger smooths both."""
     from types import SimpleNamespace

@@ -124,7 +124,9 @@ def matched_smoothing(body: Markers, hands: Markers, *, smooth_s: float = SMOOTH
 
     def excess(w: float, b: float) -> float:
         h = k * _sign_change_rate(rel_h, hands.fps, k * w, dead_zone, hands.up)
-        return float(max(b / h, h / b)) if h > 0 else np.inf
+        if h <= 0 or b <= 0:  # a short take smoothed flat: no changes on either side agree, on one side only do not
+            return 1.0 if h <= 0 and b <= 0 else np.inf
+        return float(max(b / h, h / b))
 
     first = excess(smooth_s, rb)
     if ratio is None or first <= max(ratio, trigger if trigger is not None else ratio):

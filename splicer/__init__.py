@@ -14,7 +14,8 @@ The splice
     :class:`SideResult`, :class:`Report` (``to_dict()``, ``to_json()``), :class:`SideReport`.
 Stages (each returns a typed result; :func:`splice` composes them)
     :func:`load_inputs` -> :func:`find_rig` -> :func:`condition_hands` -> :func:`side_markers`
-    -> :func:`align_side` -> :func:`time_map` -> :func:`transfer_side` -> :func:`check_fingers`
+    -> :func:`align_side` (both sides: :func:`align_pair`, with one noise decision,
+    :func:`phase_smoothing`) -> :func:`time_map` -> :func:`transfer_side` -> :func:`check_fingers`
     -> :func:`build_report`.
 The constraints file
     :func:`read_config`, :func:`parse_config`, :class:`SpliceConfig`, :class:`Pin`.
@@ -55,6 +56,7 @@ _LAZY = {
     "read_bvh": ".io.bvh", "write_bvh": ".io.bvh",
     "splice": ".pipeline", "SpliceResult": ".pipeline", "SideResult": ".pipeline",
     "load_inputs": ".pipeline", "find_rig": ".pipeline", "condition_hands": ".pipeline", "check_fingers": ".pipeline", "side_markers": ".pipeline", "align_side": ".pipeline",
+    "align_pair": ".pipeline", "phase_smoothing": ".pipeline",
     "time_map": ".pipeline", "transfer_side": ".pipeline", "build_report": ".pipeline",
     "SpliceOptions": ".options",
     "Report": ".report", "SideReport": ".report",

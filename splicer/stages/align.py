@@ -379,7 +379,7 @@ def align_pair(markers: dict, opts: SpliceOptions, log: Log | None = None, *, en
     if not share > D.RECHECK_SHARE:
         return aligned
     if any(v != opts.smooth_s for v in smooth.values()):
-        return aligned  # matched already (the other way round, back to the default smoothing, was right 2 of 4 times)
+        return aligned  # matched already: going back to the default smoothing by agreement was right 1 of 3 times
     second = Log(log._progress)  # the other choice's own notes, kept only with its alignment
     other = phase_smoothing(markers, replace(opts, noise_ratio=D.NOISE_RATIO), second)
     if other == smooth:

@@ -70,6 +70,22 @@ def test_hands_with_zero_frames(tmp_path, takes):
     _refused(tmp_path, _splice(tmp_path, body, hands), "hands.bvh: the hands take has 0 frame(s)")  # ...not a take
 
 
+def test_hand_only_hands_with_zero_frames(tmp_path, takes):
+    """Row (nightly fuzz): ValueError 'zero-size array to reduction operation maximum' in the
+    up-axis detection for a hand-only (Leap-like) hands file with Frames: 0."""
+    from splicer.evaluation.separate import wrist_rooted
+    from splicer.io.bvh import write_bvh
+    from splicer.rig.roles import find_roles
+
+    body, hands = takes
+    m = read_bvh(hands)
+    only = tmp_path / "hand_only.bvh"
+    write_bvh(wrist_rooted(m, find_roles(m.skeleton).sides["right"].wrist, source="hand_only.bvh"), only)
+    text = only.read_text()
+    only.write_text(text[: text.index("Frames:")] + "Frames: 0\nFrame Time: 0.016666666666666666\n")
+    _refused(tmp_path, _splice(tmp_path, body, only), "hand_only.bvh: the hands take has 0 frame(s)")
+
+
 def test_channels_count_written_superscript_three(tmp_path, takes):
     """Row: ValueError: invalid literal for int() for a CHANNELS count written '³'."""
     body, hands = takes

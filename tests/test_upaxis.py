@@ -53,6 +53,17 @@ def test_hand_only_files_fall_back_to_the_rest_skeleton(sample):
     assert (u.axis, u.source) == (1, "rest skeleton") and "hand-only" in u.why
 
 
+def test_a_take_without_frames_keeps_the_rest_skeleton(sample):
+    """Frames: 0 (a hand-only file: the root-turn branch; a full body: head and feet) used to
+    raise inside numpy, found by the nightly fuzz; check_takes refuses the take by name later."""
+    hands = sample[1]
+    w = wrist_rooted(hands, find_roles(hands.skeleton).sides["right"].wrist, source="hands_right.bvh")
+    for m in (w.slice(0, 0), hands.slice(0, 0)):
+        assert m.n_frames == 0
+        u = detect_up(m)
+        assert (u.axis, u.source, u.why) == (1, "rest skeleton", "the take has no frames")
+
+
 def test_without_head_or_feet_the_root_turning_tells_the_vertical():
     take = make_gesture_take(6.0, 30.0, np.random.default_rng(5))
     yaw = yaw_quat_deg(np.linspace(0.0, 120.0, take.n_frames), 1)  # turns 120 deg about Y

@@ -109,6 +109,8 @@ def detect_up(motion: Motion, *, override: str | int | None = None) -> UpAxis:
     if override is not None:
         axis = override if isinstance(override, int) else _AXES.index(str(override).lower())
         return UpAxis(int(axis), "config", "up: in the config file", rest_axis)
+    if motion.n_frames == 0:  # nothing moves: the rest skeleton (the splice refuses such a take later, by name)
+        return UpAxis(rest_axis, "rest skeleton", "the take has no frames", rest_axis)
     head, feet = _named(sk)
     m = _sampled(motion)
     if head or feet:

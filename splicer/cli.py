@@ -22,6 +22,7 @@ import warnings
 from pathlib import Path
 
 from . import __version__
+from . import defaults as D
 from .io.atomic import Transaction, write_text_atomic
 from .errors import SplicerError
 from .io.limits import one_line, shorten
@@ -93,8 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="open ends: body frame 0 shows this hands time (a starting guess, e.g. from timecode)")
     p.add_argument("--noise-ratio", type=_noise_ratio, default="auto", metavar="R",
                    help="when one take's arm is noisier (a second performance), smooth both more until their "
-                        "direction changes agree within this factor: auto (default: when they differ over 1.5x, "
-                        "until within 1.2x), a number R (whenever over R), or off")
+                        f"direction changes agree within this factor: auto (default: when they differ over "
+                        f"{D.NOISE_TRIGGER:g}x, until within {D.NOISE_RATIO:g}x), a number R (whenever over R), or off")
     p.add_argument("--band2", default=None, type=_band_text, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")

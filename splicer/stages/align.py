@@ -338,10 +338,11 @@ def _cover_pins(covered: tuple, pins, n: int) -> tuple:
 def _disagreement(aligned: dict, fps: float) -> tuple[float, float]:
     """Mean seconds between the two sides' time maps, and the share of frames over
     :data:`LOW_CONFIDENCE_S`, over the body frames both cover (NaN, NaN: none)."""
+    from .crosscheck import hands_disagreement
     from .report import LOW_CONFIDENCE_S
 
-    a, b = (np.asarray(x.per_frame, dtype=np.float64) for x in aligned.values())
-    d = np.abs(a - b) / fps
+    a, b = (x.per_frame for x in aligned.values())
+    d = hands_disagreement(a, b, fps)  # per_frame is in common frames: at the body rate
     d = d[np.isfinite(d)]
     if not d.size:
         return float("nan"), float("nan")

@@ -8,14 +8,17 @@ path, and of the output's finger rotations (degrees).  ``python benchmarks/noise
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from splicer.io.bvh import read_bvh
-from splicer.model.rotations import quat_angle_deg
-from splicer.options import SpliceOptions
-from splicer.pipeline import splice
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
+
+from splicer.io.bvh import read_bvh  # noqa: E402
+from splicer.model.rotations import quat_angle_deg  # noqa: E402
+from splicer.options import SpliceOptions  # noqa: E402
+from splicer.pipeline import splice  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BODY, HANDS, SYNC = (ROOT / "motions" / n for n in ("sample_body.bvh", "sample_hands.bvh", "sample_sync.yaml"))

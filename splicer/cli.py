@@ -66,6 +66,18 @@ def _noise_ratio(text: str) -> float | str | None:
     return v
 
 
+def _position_weight(text: str) -> float | str:
+    if text == "auto":
+        return text
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (v >= 0.0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be auto or a number >= 0 (e.g. 3; 0 is the paper's D1 alone), not {text!r}")
+    return v
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="splice",
@@ -96,6 +108,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="when one take's arm is noisier (a second performance), smooth both more until their "
                         f"direction changes agree within this factor: auto (default: when they differ over "
                         f"{D.NOISE_TRIGGER:g}x, until within {D.NOISE_RATIO:g}x), a number R (whenever over R), or off")
+    p.add_argument("--position-weight", type=_position_weight, default="auto", metavar="W",
+                   help="pass 1 weighs where the wrists and hands are (shoulder-relative, normalised per take) "
+                        f"beside D1's direction signs: auto (default: {D.POSITION_WEIGHT_NOISY:g} where a noisier "
+                        f"take's markers are smoothed, else {D.POSITION_WEIGHT:g} with fixed ends and 0 open-ended; "
+                        "0 against hand-only files and optical markers), a number W, or 0 (D1 alone, the paper)")
     p.add_argument("--band2", default=None, type=_band_text, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")
@@ -277,7 +294,8 @@ def main(argv=None) -> int:
                             passes=args.passes, merge=args.merge, wrist=args.wrist, hands_side=args.hands_side,
                             mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on",
                             hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
-                            offset_s=args.offset, noise_ratio=args.noise_ratio)
+                            offset_s=args.offset, noise_ratio=args.noise_ratio,
+                            position_weight=args.position_weight)
         after = {}
         with tx:  # every output is staged, and appears only at tx.commit()
             progress("write", 0.0)

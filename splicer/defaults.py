@@ -61,6 +61,17 @@ RECHECK_SHARE = 0.25
 NOISE_WARN = 1.6
 #: Smoothing widths tried by noise matching, as multiples of ``smooth_s``.
 SMOOTH_STEPS = (1.0, 2.0, 4.0, 6.0, 8.0)
+#: Pass 1's position term (``position_weight="auto"``, :func:`splicer.align.costs.d1_cost`):
+#: D1 units per unit of the mean squared difference of the normalised shoulder-relative wrist
+#: and hand positions.  Tuning seeds 0-3 of the nine scenarios (README, *Accuracy*), weights
+#: 0 / 1 / 3 / 10 / 30 on every pair: 3 leaves the clean scenarios as they were or better
+#: (synthetic speed 0.051 -> 0.037 s) and 10 or more costs them (synthetic short 0.030 ->
+#: 0.037 s at 10); where the arm is noisy (imitation, all) 10 is far better than 3
+#: (synthetic all 1.69 -> 0.60 s, zeggs all 0.29 -> 0.15 s).
+POSITION_WEIGHT = 3.0
+#: ... and where noise matching smoothed the pair (derivative signs are less to be trusted),
+#: in every pass of pass 1, open-ended ones included (:func:`splicer.stages.align.position_weights`).
+POSITION_WEIGHT_NOISY = 10.0
 #: D1's sign dead zone: components below this share of the motion's RMS velocity
 #: (acceleration) count as zero.
 DEAD_ZONE = 0.01

@@ -34,6 +34,7 @@ class SpliceOptions:
     temperature_s: float = D.PASS1_TEMPERATURE_S  # pass 1: a path costing 1 D1 unit more per frame for this long is e times less likely; 0 = the best path alone
     posterior_radius_s: float = D.POSTERIOR_RADIUS_S  # pass 1: hands time each side of the best path weighed, seconds
     noise_ratio: float | str | None = "auto"  # "auto": when one take's signs flip over NOISE_TRIGGER times as often, smooth both until within NOISE_RATIO; a number R: whenever over R, until within R; None: off
+    position_weight: float | str = "auto"  # pass 1 adds this many D1 units per unit of the position term; "auto": POSITION_WEIGHT_NOISY where noise matching smoothed the pair, else POSITION_WEIGHT with fixed ends and 0 open-ended (stages.align.position_weights); 0: D1 alone (the paper)
     timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
     blend_window: int = D.BLEND_WINDOW_FRAMES  # median merge: frames blended each side of a jump
     uncovered_blend_s: float = 0.25  # body frames without hands material: blend in/out over this, seconds
@@ -96,6 +97,9 @@ def resolve_options(options: SpliceOptions | None = None, overrides: dict | None
     if nr is not None and nr != "auto" and (isinstance(nr, bool) or not isinstance(nr, (int, float))
                                             or not (nr >= 1 and math.isfinite(nr))):
         raise SplicerError(f"noise_ratio must be 'auto', a number >= 1 or None (off), not {nr!r}")
+    pw = opts.position_weight
+    if pw != "auto" and (isinstance(pw, bool) or not isinstance(pw, (int, float)) or not (pw >= 0 and math.isfinite(pw))):
+        raise SplicerError(f"position_weight must be 'auto' or a number >= 0 (0: D1 alone, the paper), not {pw!r}")
     if isinstance(opts.blend_window, bool) or not (isinstance(opts.blend_window, int) and opts.blend_window >= 0):
         raise SplicerError(f"blend_window must be a whole number of frames >= 0, not {opts.blend_window!r}")
     return opts

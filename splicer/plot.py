@@ -170,10 +170,11 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         k = 0
         if s.pass1 is not None:
             ax, cax = pass_axes(row, k)
-            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, phase metric D1 (band {s.pass1.band.width:.0f} frames)", cons,
-                            max_pixels=px)
+            w = s.pass1.position_weight
+            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, phase metric D1{' + positions' if w else ''} "
+                                         f"(band {s.pass1.band.width:.0f} frames)", cons, max_pixels=px)
             ax.set_ylabel("hands frame (body rate)")
-            colorbar(im, cax, "D1 (squared sign differences)")
+            colorbar(im, cax, f"D1 + {w:g} x position term" if w else "D1 (squared sign differences)")
             k += 1
         if s.pass2 is not None:
             ax, cax = pass_axes(row, k)

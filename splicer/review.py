@@ -154,7 +154,8 @@ class PinReview:
                 self.per_frame[x0:x1 + 1] = np.linspace(y0, y1, x1 - x0 + 1)
                 continue
             sub_sp = FrameSpaces(x1 - x0 + 1, int(round((y1 - y0) * sp.ratio)) + 1, sp.body_fps, sp.hands_fps)
-            sub = SideMarkers(self.side, cut(self.markers.body, x0, x1), cut(self.markers.hands, y0, y1), sub_sp, ())
+            sub = SideMarkers(self.side, cut(self.markers.body, x0, x1), cut(self.markers.hands, y0, y1), sub_sp, (),
+                              self.markers.real, self.markers.hand_only)
             try:
                 aln = align_side(sub, self.opts)
             except SplicerError as e:

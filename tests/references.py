@@ -39,3 +39,8 @@ def d2_reference(body: PalmFeatures, hands: PalmFeatures, i: int, j: int) -> flo
     rot = Rotation.from_rotvec(axis / s * ang) if s > 1e-15 else Rotation.identity()
     rk = rot.apply(k)
     return float(np.arccos(np.clip(np.dot(h, rk) / np.linalg.norm(rk), -1, 1)))
+
+
+def position_reference(body: PhaseFeatures, hands: PhaseFeatures, i: int, j: int) -> float:
+    """The position term of one cell: the mean squared difference of the two frames' features."""
+    return float(np.mean((body.position[i] - hands.position[j]) ** 2))

@@ -154,3 +154,13 @@ def test_hold_pins_worked_answers():
     assert out.tolist() == [0, 1, 2, 2, 2, 2, 2, 7, 8, 9]
     # clipped to the take
     assert hold_pins(np.array([-1.0, 30.0]), [], last=20).tolist() == [0.0, 20.0]
+
+
+@pytest.mark.parametrize("value", [-0.5, float("nan"), "heavy", True])
+def test_position_weight_is_validated(value):
+    from splicer.errors import SplicerError
+    from splicer.options import resolve_options
+
+    with pytest.raises(SplicerError, match="position_weight must be 'auto' or a number >= 0"):
+        resolve_options(None, {"position_weight": value})
+    assert resolve_options(None, {"position_weight": 0}).position_weight == 0

@@ -41,7 +41,7 @@ def test_sample_end_to_end(tmp_path, capsys):
     for side in ("left", "right"):
         s = report["sides"][side]
         assert len(s["hands_frame"]) == 601
-        assert set(s["pass1"]) == {"band_frames", "cost"} and set(s["pass2"]) == {"band_frames", "cost"}
+        assert set(s["pass1"]) == {"band_frames", "cost", "position_weight"} and set(s["pass2"]) == {"band_frames", "cost"}
         assert len(s["constraints"]) == 4
         for c in s["constraints"]:  # tolerance 2 honoured
             assert abs(s["hands_frame"][c["body"]] - c["hands"]) <= 2
@@ -149,6 +149,27 @@ def test_noise_ratio_must_be_at_least_one(value, tmp_path, capsys):
     err = capsys.readouterr().err
     assert e.value.code == 2 and "--noise-ratio" in err and f"not {value!r}" in err
     assert err.count("\n") == 1 and not (tmp_path / "o.bvh").exists()
+
+
+@pytest.mark.parametrize("value", ["-1", "inf", "heavy"])
+def test_position_weight_must_be_auto_or_nonnegative(value, tmp_path, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([str(BODY), str(HANDS), "-o", str(tmp_path / "o.bvh"), "--position-weight", value])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "--position-weight" in err and f"not {value!r}" in err
+    assert err.count("\n") == 1 and not (tmp_path / "o.bvh").exists()
+
+
+def test_position_weight_reaches_the_report(tmp_path, capsys):
+    """The weight pass 1 used is in the report, per side: 0 when asked (the paper's D1 alone);
+    by default 3 on the bundled pair (a clean one: noise matching does not trigger)."""
+    import json
+
+    for args, want in (([], 3.0), (["--position-weight", "0"], 0.0)):
+        rep = tmp_path / f"r{len(args)}.json"
+        code, _, _ = _run([BODY, HANDS, "-o", tmp_path / f"o{len(args)}.bvh", "--report", rep, *args], capsys)
+        sides = json.loads(rep.read_text())["sides"]
+        assert code == 0 and {s: d["pass1"]["position_weight"] for s, d in sides.items()} == {"left": want, "right": want}
 
 
 def test_noise_ratio_smooths_a_noisier_hands_take(tmp_path, capsys):

@@ -5,8 +5,9 @@ import pytest
 
 from splicer.align.dtw import make_band
 from splicer.rig.markers import Markers
-from references import d1_reference, d2_reference
-from splicer.align.costs import d1_cost, d2_cost, kgp_theta, palm_features, phase_features, window_points
+from references import d1_reference, d2_reference, position_reference
+from splicer.align.costs import (d1_cost, d2_cost, kgp_theta, palm_features, phase_features, position_features,
+                                 window_points)
 from splicer.align.noise import matched_smoothing, sign_change_rate, swing_rate
 from splicer.model.rotations import quat_rotate, yaw_quat_deg
 
@@ -210,3 +211,93 @@ def test_phase_smoothing_decides_once_for_both_hands():
     # a number: each side on its own, whenever over it, until within it (right: 1.86x, then under 1.5x at 0.05 s)
     assert phase_smoothing({"left": left, "right": right}, SpliceOptions(noise_ratio=1.5)) == {
         "left": 0.025, "right": pytest.approx(0.05)}
+
+
+# ---------------------------------------------------------------- the position term (pass 1, beyond the paper)
+
+@pytest.mark.parametrize("weight", [0.5, 3.0])
+def test_position_term_matches_reference(rng, weight):
+    """D1 with a position weight is D1 plus the weight times the plain mean squared difference."""
+    body = phase_features(_markers(rng, 40), position=True)
+    hands = phase_features(_markers(rng, 55), position=True)
+    band = make_band(40, 55, 20.0)
+    plain = d1_cost(body, hands)(band, 3, 37)
+    rows = d1_cost(body, hands, position_weight=weight)(band, 3, 37)
+    for r, i in enumerate(range(3, 37)):
+        k = band.hi[i] - band.lo[i] + 1
+        for c in range(k):
+            j = band.lo[i] + c
+            assert rows[r, c] == pytest.approx(plain[r, c] + weight * position_reference(body, hands, i, j), abs=1e-9)
+        assert np.all(np.isinf(rows[r, k:]))
+
+
+def test_position_features_worked_answer():
+    """Shoulder at the origin, heading 0, up = y; the wrist and hand markers move along x only,
+    through 0, 1, 2, 3, 4 (p1), 0, 2, 4, 6, 8 (p2: twice as far) and 5, 5, 5, 5, 5 (p4: still).
+    Each coordinate: minus its median, over 1.4826 x its MAD, the MAD floored at a tenth of the
+    widest: p1.x -> (-2, -1, 0, 1, 2) / 1.4826, p2.x -> the same (scale removed), p4.x and every
+    y, z -> 0 (no spread; floored, not divided by zero)."""
+    x = np.arange(5.0)
+    pts = np.zeros((5, 4, 3))
+    pts[:, 0, 0], pts[:, 1, 0], pts[:, 3, 0] = x, 2 * x, 5.0
+    mk = Markers(pts, np.zeros((5, 3)), np.zeros(5), 1, 30.0, "left")
+    f = position_features(mk)
+    want = np.zeros((5, 9))
+    want[:, 0] = want[:, 3] = (x - 2.0) / 1.4826
+    np.testing.assert_allclose(f, want, atol=1e-12)
+    # no motion at all: zeros (no division by zero)
+    still = Markers(np.ones((4, 4, 3)), np.zeros((4, 3)), np.zeros(4), 1, 30.0, "left")
+    np.testing.assert_array_equal(position_features(still), np.zeros((4, 9)))
+
+
+@pytest.mark.parametrize("up", [0, 1, 2])
+def test_position_features_ignore_facing_scale_and_place(rng, up):
+    """The same arm motion performed facing elsewhere (root heading turned with it), confined to
+    half the reach, and elsewhere in the room: the same features."""
+    mk = _markers(rng, 60, up)
+    q = yaw_quat_deg(41.0, up)
+    shift = np.array([30.0, -4.0, 12.0])
+    rel = mk.points - mk.shoulder[:, None, :]
+    sh = quat_rotate(q, mk.shoulder) + shift
+    moved = Markers(quat_rotate(q, 0.5 * rel) + sh[:, None, :], sh, mk.heading + np.radians(41.0), up, mk.fps, "left")
+    np.testing.assert_allclose(position_features(moved), position_features(mk), atol=1e-9)
+
+
+def test_position_weight_needs_position_features(rng):
+    body, hands = phase_features(_markers(rng, 10)), phase_features(_markers(rng, 12))
+    with pytest.raises(ValueError, match="position=True"):
+        d1_cost(body, hands, position_weight=1.0)
+    with pytest.raises(ValueError, match="position_weight"):
+        d1_cost(body, hands, position_weight=-1.0)
+
+
+def test_position_weight_policy():
+    """auto: (3, 0) on a clean pair (fixed ends, open ends), (10, 10) where noise matching
+    smoothed it (either side: one decision for the pair), (0, 0) for a hand-only file or real
+    optical markers; a number is used for both."""
+    from types import SimpleNamespace
+
+    from splicer import defaults as D
+    from splicer.options import SpliceOptions
+    from splicer.stages.align import position_weights
+
+    arm = SimpleNamespace(hand_only=False, real={})
+    auto = SpliceOptions()
+    assert position_weights(auto, arm, False) == (D.POSITION_WEIGHT, 0.0) == (3.0, 0.0)
+    assert position_weights(auto, arm, True) == (D.POSITION_WEIGHT_NOISY,) * 2 == (10.0, 10.0)
+    assert position_weights(auto, SimpleNamespace(hand_only=True, real={}), False) == (0.0, 0.0)
+    assert position_weights(auto, SimpleNamespace(hand_only=False, real={"hands": {}}), True) == (0.0, 0.0)
+    assert position_weights(SpliceOptions(position_weight=0), arm, True) == (0.0, 0.0)
+    assert position_weights(SpliceOptions(position_weight=7.5), SimpleNamespace(hand_only=True, real={}), False) == (7.5, 7.5)
+
+
+def test_open_ended_pass_weighs_positions_in_locating_and_penalty():
+    """Open ends: the locating pass and the uncovered penalty use the pass's own cost."""
+    from splicer.align.passes import pass1
+
+    rng = np.random.default_rng(5)
+    body, hands = _markers(rng, 120), _markers(rng, 150)
+    p = pass1(body, hands, width=30.0, ends="open", position_weight=3.0)
+    assert p.position_weight == p.located.position_weight == 3.0
+    d1_only = pass1(body, hands, width=30.0, ends="open")
+    assert d1_only.located.position_weight == 0.0 and p.uncovered_cost > d1_only.uncovered_cost

@@ -14,6 +14,13 @@ RMS speed / acceleration; beyond the paper, past the dead zone the sign rises li
 superimposes the 5-frame marker windows around ``i`` and ``j`` (Kovar, Gleicher & Pighin
 2002), or the difference of root headings.
 
+Beyond the paper, pass 1 may add a position term ``w P(i, j)``: the mean squared difference
+of the two takes' shoulder-relative wrist and hand positions (``p1, p2, p4``), each turned by
+its root's heading and normalised per take and axis by median and MAD
+(:func:`position_features`), so a confined or re-scaled hands performance still compares.
+Derivative signs flip with noise and say nothing where the arm holds; where the arm *is*
+says which stretch of the performance this is (README, *How it works*).
+
 D2 (section 5, eq. 8-9): the angle (radians) between the body's hand vector ``h`` and the
 hands capture's ``h'`` after turning the forearm ``f'`` onto ``f``.
 """
@@ -33,6 +40,7 @@ __all__ = [
     "PhaseFeatures",
     "phase_features",
     "d1_cost",
+    "position_features",
     "PalmFeatures",
     "palm_features",
     "d2_cost",
@@ -62,6 +70,9 @@ class PhaseFeatures:
     ramp_vel, ramp_acc : float
         Width of the sign's ramp past the dead zone (same units as ``eps_vel``, ``eps_acc``);
         0: the paper's step.
+    position : np.ndarray [shape=(T, 9)] or None
+        Normalised positions for the position term (:func:`position_features`); None
+        when not asked for.
     """
 
     vel: np.ndarray
@@ -73,6 +84,7 @@ class PhaseFeatures:
     up: int
     ramp_vel: float = 0.0
     ramp_acc: float = 0.0
+    position: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
@@ -129,8 +141,50 @@ def _smooth_derivatives(x: np.ndarray, fps: float, smooth_s: float) -> tuple[np.
     return vel, acc
 
 
+#: position_features: an axis whose spread (MAD) is below this share of the widest axis's is
+#: scaled as if it had that share (a nearly still coordinate would otherwise turn noise into cost)
+POSITION_MIN_SPREAD = 0.1
+
+
+def position_features(markers: Markers) -> np.ndarray:
+    """The position term's inputs: shoulder-relative ``p1, p2, p4``, heading removed, normalised.
+
+    Each frame's wrist and hand markers relative to the shoulder are turned about the up axis
+    by minus the root's heading (so a performer facing elsewhere compares), then each of the
+    nine coordinates is centred on its median and divided by its MAD (times 1.4826: the
+    standard deviation for normal data), floored at :data:`POSITION_MIN_SPREAD` of the largest.
+    Median and MAD, not mean and standard deviation: extra material at the ends of a hands
+    take (a calibration pose held for seconds) barely moves them.
+
+    Parameters
+    ----------
+    markers : Markers
+
+    Returns
+    -------
+    np.ndarray [shape=(T, 9), dtype=float64]
+        Unitless; zeros where the take does not move at all.
+    """
+    rel = markers.relative()[:, [0, 1, 3]]
+    a, b = horizontal_axes(markers.up)
+    h = np.asarray(markers.heading, dtype=np.float64)[:, None]
+    cs, sn = np.cos(h), np.sin(h)
+    x = rel.copy()
+    x[..., a] = cs * rel[..., a] + sn * rel[..., b]  # turned by -heading: a turn by +phi adds phi to the heading
+    x[..., b] = -sn * rel[..., a] + cs * rel[..., b]
+    x = x.reshape(len(x), -1)
+    if not len(x):
+        return np.zeros((0, 9))
+    med = np.median(x, axis=0)
+    mad = 1.4826 * np.median(np.abs(x - med), axis=0)
+    top = float(mad.max())
+    if not top > 0.0:
+        return np.zeros_like(x)
+    return np.ascontiguousarray((x - med) / np.maximum(mad, POSITION_MIN_SPREAD * top))
+
+
 def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE,
-                   sign_ramp: float = SIGN_RAMP) -> PhaseFeatures:
+                   sign_ramp: float = SIGN_RAMP, position: bool = False) -> PhaseFeatures:
     """Prepare D1's inputs for one motion.
 
     Parameters
@@ -150,6 +204,8 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         Past the dead zone, the sign rises linearly to +-1 over ``sign_ramp`` times the RMS
         velocity (acceleration); 0 is the paper's step.  Default: the splice's,
         :data:`splicer.defaults.SIGN_RAMP`.
+    position : bool
+        Also prepare the position term's inputs (:func:`position_features`).
     """
     rel = markers.relative()
     vel, acc = _smooth_derivatives(rel, markers.fps, smooth_s)
@@ -159,7 +215,7 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
     return PhaseFeatures(
         np.ascontiguousarray(vel), np.ascontiguousarray(acc), dead_zone * rms_v, dead_zone * rms_a, win,
         np.array(markers.heading, dtype=np.float64), markers.up,  # a writable copy: one compiled D1 kernel, not two
-        sign_ramp * rms_v, sign_ramp * rms_a,
+        sign_ramp * rms_v, sign_ramp * rms_a, position_features(markers) if position else None,
     )
 
 
@@ -234,7 +290,7 @@ def _d1_rows(i0, i1, lo, hi, width, sv, sa, wb, hb, vh, ah, evh, eah, rvh, rah, 
             out[r, c] = np.inf
 
 
-def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window"):
+def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window", position_weight: float = 0.0):
     """A band-chunk cost callable for D1 (see :func:`splicer.dtw.dtw`).
 
     Parameters
@@ -244,6 +300,10 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window")
     theta : {"window", "heading"}
         Vertical-axis alignment: per frame pair from 5-frame marker windows (the paper),
         or the difference of root headings.
+    position_weight : float
+        Beyond the paper: add this many D1 units times the position term (the mean squared
+        difference of the two frames' :func:`position_features`); 0 is D1 alone.  Both
+        features need ``position`` then.
 
     Returns
     -------
@@ -254,6 +314,11 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window")
     if theta not in ("window", "heading"):
         raise ValueError(f"theta must be 'window' or 'heading', not {theta!r}")
     mode = 0 if theta == "window" else 1
+    w = float(position_weight)
+    if not (w >= 0.0 and np.isfinite(w)):
+        raise ValueError(f"position_weight must be >= 0 and finite, got {position_weight!r}")
+    if w > 0.0 and (body.position is None or hands.position is None):
+        raise ValueError("a position weight needs phase_features(..., position=True) on both takes")
     sv = np.empty_like(body.vel)
     sa = np.empty_like(body.acc)
     _signs(body.vel, body.eps_vel, body.ramp_vel, sv)
@@ -265,9 +330,26 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window")
         _d1_rows(i0, i1, band.lo, band.hi, width, sv, sa, body.window, body.heading, hands.vel, hands.acc,
                  hands.eps_vel, hands.eps_acc, hands.ramp_vel, hands.ramp_acc, hands.window, hands.heading,
                  body.up, mode, out)
+        if w > 0.0:
+            _position_rows(i0, i1, band.lo, band.hi, body.position, hands.position, w, out)
         return out
 
     return cost
+
+
+@njit(cache=True, parallel=True)
+def _position_rows(i0, i1, lo, hi, xb, xh, weight, out):
+    # adds weight * mean_k (xb[i, k] - xh[j, k])^2 to every band cell of rows i0..i1-1
+    D = xb.shape[1]
+    for r in prange(i1 - i0):
+        i = i0 + r
+        for c in range(hi[i] - lo[i] + 1):
+            j = lo[i] + c
+            s = 0.0
+            for k in range(D):
+                d = xb[i, k] - xh[j, k]
+                s += d * d
+            out[r, c] += weight * s / D
 
 
 @dataclass(frozen=True, eq=False)

@@ -148,7 +148,7 @@ def offset_band(n: int, m: int, offset: float, width: float, constraints=()) -> 
 
 
 def d1_sample(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window", rows: int = 200,
-              cols: int = 2000, seed: int = 0) -> np.ndarray:
+              cols: int = 2000, seed: int = 0, position_weight: float = 0.0) -> np.ndarray:
     """D1 on a seeded random sample of (body frame, hands frame) pairs, for :func:`uncovered_penalty`.
 
     Parameters
@@ -159,6 +159,8 @@ def d1_sample(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window
         At most this many body and hands frames (sampled without replacement; all if fewer).
     theta : {"window", "heading"}
     seed : int
+    position_weight : float
+        As :func:`splicer.align.costs.d1_cost` (the pass's own cost, position term included).
 
     Returns
     -------
@@ -170,9 +172,10 @@ def d1_sample(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window
     def pick(f: PhaseFeatures, k):
         t = f.n_frames
         idx = np.sort(rng.choice(t, k, replace=False)) if t > k else np.arange(t)
-        return dataclasses.replace(f, vel=f.vel[idx], acc=f.acc[idx], window=f.window[idx], heading=f.heading[idx])
+        return dataclasses.replace(f, vel=f.vel[idx], acc=f.acc[idx], window=f.window[idx], heading=f.heading[idx],
+                                   position=None if f.position is None else np.ascontiguousarray(f.position[idx]))
 
     b, h = pick(body, rows), pick(hands, cols)
     band = Band(n=b.n_frames, m=h.n_frames, width=math.inf, lo=np.zeros(b.n_frames, np.int64),
                 hi=np.full(b.n_frames, h.n_frames - 1, np.int64))
-    return d1_cost(b, h, theta=theta)(band, 0, b.n_frames)
+    return d1_cost(b, h, theta=theta, position_weight=position_weight)(band, 0, b.n_frames)

@@ -66,6 +66,8 @@ class PassResult:
         Pass 1: ``local_cost`` with the rows the DTW computed kept as float32
         (:mod:`splicer.align.costcache`), for the readers that store float32 anyway (the
         expected path, the confidence); ``local_cost`` itself always computes afresh.
+    position_weight : float
+        Pass 1: the weight of the position term in its local cost (0: D1 alone, the paper).
     """
 
     path: np.ndarray
@@ -82,6 +84,7 @@ class PassResult:
     fps: float | None = None
     notes: tuple = ()
     kept_cost: object = None
+    position_weight: float = 0.0
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
@@ -107,7 +110,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
           horizontal_weight: float | None = None, guide: np.ndarray | None = None,
-          cache_bytes: int = CACHE_BYTES) -> PassResult:
+          cache_bytes: int = CACHE_BYTES, position_weight: float = 0.0) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -169,6 +172,9 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         The full-rate pass keeps up to this many bytes of its local costs (float32, 4 bytes a
         band cell; :class:`splicer.align.costcache.CachedBandCost`) so that the expected path
         and the confidence read them instead of computing them again; 0 keeps none.
+    position_weight : float
+        Beyond the paper: D1 units per unit of the position term added to D1 in every DTW of
+        the pass (:func:`splicer.align.costs.d1_cost`); 0 is D1 alone (the paper).
 
     Returns
     -------
@@ -185,10 +191,12 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                            coarse_width=coarse_width, progress=progress, offset_s=offset_s,
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
                            max_coarse_cells=max_coarse_cells, step_penalty=step_penalty, cache_bytes=cache_bytes,
+                           position_weight=position_weight,
                            horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight)
     hw = 1.0 if horizontal_weight is None else float(horizontal_weight)
-    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
-    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
+    pos = position_weight > 0
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
     n, m = body.n_frames, hands.n_frames
     notes: tuple = ()
     if guide is not None:
@@ -203,7 +211,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         cw = (coarse_width if coarse_width is not None else width) / factor
         coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone,
                        sign_ramp=sign_ramp, theta=theta,
-                       step_penalty=step_penalty, horizontal_weight=hw, cache_bytes=0)
+                       step_penalty=step_penalty, horizontal_weight=hw, cache_bytes=0, position_weight=position_weight)
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints)
         except BandError:
@@ -212,16 +220,16 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                      f"band of {width:g} frames instead (a long take may drift out of it: check the pins)",)
     else:
         band = make_band(n, m, width, constraints)
-    d1 = d1_cost(fb, fh, theta=theta)
+    d1 = d1_cost(fb, fh, theta=theta, position_weight=position_weight)
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
     res = _run(kept, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw,
-                      notes=notes, kept_cost=kept)
+                      notes=notes, kept_cost=kept, position_weight=float(position_weight))
 
 
 def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
                 offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight,
-                cache_bytes):
+                cache_bytes, position_weight):
     n, m = body.n_frames, hands.n_frames
     cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
     factor = body.fps / cfps
@@ -232,12 +240,13 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ra
     nc, mc = cb.n_frames, ch.n_frames
     notes: tuple = ()
     ccons = _coarse_constraints(constraints, factor, nc, mc) if factor > 1.0 else list(constraints)
-    fcb = phase_features(cb, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
-    fch = phase_features(ch, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
-    d1c = d1_cost(fcb, fch, theta=theta)
+    pos = position_weight > 0
+    fcb = phase_features(cb, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
+    fch = phase_features(ch, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
+    d1c = d1_cost(fcb, fch, theta=theta, position_weight=position_weight)
     u = uncovered_cost
     if u is None:
-        u = uncovered_penalty(d1_sample(fcb, fch, theta=theta), uncovered_quantile)
+        u = uncovered_penalty(d1_sample(fcb, fch, theta=theta, position_weight=position_weight), uncovered_quantile)
     if offset_s is None:
         cband = full_band(nc, mc, ccons)
     else:
@@ -246,7 +255,7 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ra
     coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u,
                  step_penalty=step_penalty, horizontal_weight=horizontal_weight)
     located = PassResult(coarse.path, coarse.cost, cband, "pass1 (locating)", d1c, coarse.covered, float(u), "open",
-                         step_penalty, float(horizontal_weight), None, cfps)
+                         step_penalty, float(horizontal_weight), None, cfps, position_weight=float(position_weight))
     if progress is not None:
         progress(0.0)
     if factor > 1.0:
@@ -262,14 +271,14 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ra
                      "matrix at full rate instead",)
     else:
         band = cband
-    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
-    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp)
-    d1 = d1_cost(fb, fh, theta=theta)
+    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
+    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
+    d1 = d1_cost(fb, fh, theta=theta, position_weight=position_weight)
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
     res = _run(kept, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
                horizontal_weight=horizontal_weight)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
-                      float(horizontal_weight), located, body.fps, notes, kept)
+                      float(horizontal_weight), located, body.fps, notes, kept, float(position_weight))
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

@@ -116,9 +116,35 @@ def phase_smoothing(markers: dict, opts: SpliceOptions, log: Log | None = None) 
     return out
 
 
+def position_weights(opts: SpliceOptions, markers: SideMarkers, noisy: bool) -> tuple[float, float]:
+    """Pass 1's position weights for one side: (a pass with fixed ends, an open-ended pass).
+
+    ``opts.position_weight`` when a number (both).  ``"auto"``:
+    :data:`splicer.defaults.POSITION_WEIGHT_NOISY` for both where noise matching smoothed the
+    pair (``noisy``: a noisier take, whose derivative signs are less to be trusted; one decision
+    for both hands, as they come from one take); otherwise
+    :data:`splicer.defaults.POSITION_WEIGHT` with fixed ends and 0 open-ended.  Open-ended,
+    the position term also enters the uncovered penalty, and on clean pairs it moved where
+    the overlap starts and ends: a calibration pose resembling the body's first frames was
+    taken for the performance (held-out synthetic *extra*, seed 102: 0.58 s off over the first
+    2 s), and a short hands take's path ran 3.7 s past its end or started 0.7 s late, whichever
+    the penalty was taken from (README, *How it works*).  0 for both where positions do not
+    compare: a hand-only hands file (measured from the capture's origin, against the body's
+    root: on tuning seeds 0-2 of the paper's protocol a wrist-rooted file went from 0.74 to 7.5
+    frames with the term) or real optical markers (no root heading to turn them by).
+    """
+    if opts.position_weight != "auto":
+        return float(opts.position_weight), float(opts.position_weight)
+    if markers.hand_only or markers.real:
+        return 0.0, 0.0
+    if noisy:
+        return D.POSITION_WEIGHT_NOISY, D.POSITION_WEIGHT_NOISY
+    return D.POSITION_WEIGHT, 0.0
+
+
 def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
                offset_s: float | None = None, guide: np.ndarray | None = None,
-               smooth_s: float | None = None) -> Alignment:
+               smooth_s: float | None = None, noisy: bool | None = None) -> Alignment:
     """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed, with a confidence.
 
     Parameters
@@ -140,6 +166,9 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     smooth_s : float, optional
         The phase metric's marker smoothing, seconds (:func:`phase_smoothing` of the pair);
         default: this side's own noise matching.
+    noisy : bool, optional
+        Noise matching smoothed the pair (either side): pass 1 weighs positions more
+        (:func:`position_weights`); default: this side's ``smooth_s`` says.
 
     Raises
     ------
@@ -159,6 +188,9 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
 
     if smooth_s is None:  # one side alone: its own noise matching
         smooth_s = phase_smoothing({s: markers}, opts, log)[s]
+    if noisy is None:
+        noisy = smooth_s > opts.smooth_s
+    pos_fixed, pos_open = position_weights(opts, markers, noisy)
 
     def run_pass1(mode: str, guide_path=None):
         open_ends = mode == "open"
@@ -166,7 +198,7 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
         guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
         w1, w2 = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=open_ends, guided=guided)
         p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
-                  sign_ramp=opts.sign_ramp,
+                  sign_ramp=opts.sign_ramp, position_weight=pos_open if open_ends else pos_fixed,
                   theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
                   uncovered_quantile=opts.uncovered_quantile,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
@@ -288,7 +320,8 @@ def agree_ends(aligned: dict, markers: dict, opts: SpliceOptions, log: Log | Non
             log.note(f"{s} side: the {' and '.join(fixed)} side's alignment runs end to end; both hands come from one "
                      "take, so this side is aligned end to end too (--ends open keeps its open ends)")
             out[s] = align_side(markers[s], opts, log, ends="fixed", offset_s=offset_s,
-                                guide=aligned[fixed[0]].pass1.path, smooth_s=(smooth or {}).get(s))
+                                guide=aligned[fixed[0]].pass1.path, smooth_s=(smooth or {}).get(s),
+                                noisy=_noisy(smooth, opts))
     return out
 
 
@@ -399,7 +432,12 @@ def align_pair(markers: dict, opts: SpliceOptions, log: Log | None = None, *, en
     return aligned
 
 
+def _noisy(smooth: dict | None, opts: SpliceOptions) -> bool | None:
+    """Noise matching smoothed either side of the pair (None: no pair's smoothing given)."""
+    return None if not smooth else any(v > opts.smooth_s for v in smooth.values())
+
+
 def _align_all(markers, smooth, opts, log, ends, offset_s) -> dict:
-    aligned = {s: align_side(mk, opts, log, ends=ends, offset_s=offset_s, smooth_s=smooth[s])
+    aligned = {s: align_side(mk, opts, log, ends=ends, offset_s=offset_s, smooth_s=smooth[s], noisy=_noisy(smooth, opts))
                for s, mk in markers.items()}
     return agree_ends(aligned, markers, opts, log, ends=ends, offset_s=offset_s, smooth=smooth)

@@ -27,6 +27,11 @@ class SideMarkers:
     spaces : FrameSpaces
     pins : tuple of Pin
         The user's pins for this side, in file frames.
+    real : dict
+        ``"body"``/``"hands"`` -> the optical markers' report, for a take aligned on real markers.
+    hand_only : bool
+        The hands file is hand-only on this side (no shoulder: the body's markers are measured
+        from its root, :func:`splicer.rig.handonly.hand_only_view`).
     """
 
     side: str
@@ -35,6 +40,7 @@ class SideMarkers:
     spaces: FrameSpaces
     pins: tuple
     real: dict = field(default_factory=dict)  # issue 14: "body"/"hands" -> optical marker report
+    hand_only: bool = False
 
 
 def _align_up(markers, up_to: int):
@@ -60,7 +66,8 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     bm, hm = inputs.body, inputs.hands
     bmk = arm_markers(bm, rig.body.sides[side], rig.body.up)
     harm = rig.hands.sides[side]
-    if is_hand_only(harm) and not is_hand_only(rig.body.sides[side]):
+    hand_only = is_hand_only(harm)
+    if hand_only and not is_hand_only(rig.body.sides[side]):
         # a hand-only file has no shoulder nor elbow: the body's markers are made the same way
         # (from its root, with the same virtual forearm)
         bmk = hand_only_view(bm, rig.body.sides[side], bmk, forearm_joint=coincident_forearm(hm.skeleton, harm) is not None)
@@ -87,7 +94,7 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
             hmk = _align_up(mk, rig.body.up)
     # --- end issue 14 ---
     pins = pins_from_config(inputs.config, side, inputs.spaces)
-    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real)
+    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real, hand_only)
     if side == rig.sides[-1]:  # the arm chains' rotations (the sides share the root and spine): not needed again
         bm.forget_rotations()
         hm.forget_rotations()

@@ -127,7 +127,12 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, ext
     from .. import __version__
 
     def pass_info(p):
-        return None if p is None else {"band_frames": round(float(p.band.width), 3), "cost": float(p.cost)}
+        if p is None:
+            return None
+        info = {"band_frames": round(float(p.band.width), 3), "cost": float(p.cost)}
+        if p.name == "pass1":
+            info["position_weight"] = p.position_weight
+        return info
 
     side_reports = {}
     for s, r in sides.items():

@@ -205,8 +205,40 @@ class _Signalled(BaseException):
         self.signum = signum
 
 
+#: Signals the handlers ``main`` installs have seen in this run (one raised inside a weakref
+#: callback or a ``__del__`` is only printed by Python as "Exception ignored", and lost: ``main``
+#: then acts on it before committing its outputs).
+_RECEIVED: list[int] = []
+
+
 def _raise_signalled(signum, frame):
+    _RECEIVED.append(signum)
     raise _Signalled(signum)
+
+
+def _interrupt(signum, frame):
+    _RECEIVED.append(signum)
+    raise KeyboardInterrupt
+
+
+def _act_on_lost_signal() -> None:
+    """Raise for a signal whose exception was swallowed (``_RECEIVED`` without the exception seen)."""
+    if _RECEIVED:
+        if _RECEIVED[0] == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise _Signalled(_RECEIVED[0])
+
+
+def _quiet_unraisable(previous):
+    """A ``sys.unraisablehook`` that drops the interrupts ``_RECEIVED`` records (no "Exception
+    ignored" on stderr) and passes anything else on to ``previous``."""
+
+    def hook(unraisable):
+        if isinstance(unraisable.exc_value, (_Signalled, KeyboardInterrupt)):
+            return
+        previous(unraisable)
+
+    return hook
 
 
 def _install_handlers() -> dict:
@@ -218,10 +250,13 @@ def _install_handlers() -> dict:
     old = {}
     if threading.current_thread() is not threading.main_thread():
         return old
+    _RECEIVED.clear()
     for name in ("SIGTERM", "SIGHUP"):
         sig = getattr(signal, name, None)
         if sig is not None and signal.getsignal(sig) == signal.SIG_DFL:
             old[sig] = signal.signal(sig, _raise_signalled)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # Ctrl-C: KeyboardInterrupt, recorded
+        old[signal.SIGINT] = signal.signal(signal.SIGINT, _interrupt)
     return old
 
 
@@ -270,6 +305,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     progress = _Progress(sys.stderr, not args.quiet)
     old_handlers = _install_handlers()
+    old_hook, sys.unraisablehook = sys.unraisablehook, _quiet_unraisable(sys.unraisablehook)
     tx = Transaction()
     try:
         from .io.atomic import _signals_held
@@ -313,10 +349,13 @@ def main(argv=None) -> int:
 
                 progress("plot", 0.5)
                 t1 = time.perf_counter()
-                plot_alignment(result, args.plot)
+                with _signals_held():  # an interrupt inside Agg's C++ drawing comes out as a ValueError
+                    plot_alignment(result, args.plot)
                 after["plot"] = time.perf_counter() - t1
             progress.close()
+            _act_on_lost_signal()
             tx.commit()
+        _act_on_lost_signal()
         if not args.quiet:
             print(_summary(result, out, time.perf_counter() - t0, after, before))
     except SplicerError as e:
@@ -340,6 +379,7 @@ def main(argv=None) -> int:
     finally:
         for sig, handler in old_handlers.items():
             signal.signal(sig, handler)
+        sys.unraisablehook = old_hook
     return 0
 
 

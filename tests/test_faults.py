@@ -227,6 +227,62 @@ def test_sigint_after_the_commit_says_what_was_written(tmp_path, monkeypatch):
     assert _outputs_consistent(tmp_path, outs, line, status) == "all"
 
 
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGHUP])
+def test_signal_during_the_drawing_waits_for_it(tmp_path, monkeypatch, sig):
+    """Fault: a SIGHUP inside matplotlib's C++ drawing (Agg) came out as 'ValueError: Invalid
+    bounding box' with a traceback and exit 1.  A signal sent while the plot is drawn takes
+    effect when it is drawn: interrupted, nothing written."""
+    from splicer import plot
+
+    real = plot.plot_alignment
+    drawn = []
+
+    def drawing(result, path):
+        os.kill(os.getpid(), sig)  # arrives inside the drawing
+        out = real(result, path)
+        drawn.append(path)  # reached only when the signal waited for the drawing
+        return out
+
+    monkeypatch.setattr(plot, "plot_alignment", drawing)
+    body, hands = small_files(tmp_path)
+    outs = {"bvh": tmp_path / "out.bvh", "report": tmp_path / "r.json", "plot": tmp_path / "p.png"}
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        status, _, err = run_cli([body, hands, "-o", outs["bvh"], "--report", outs["report"], "--plot", outs["plot"], "-q"])
+    finally:
+        signal.signal(signal.SIGINT, old)
+    line = one_error_line(err)
+    assert drawn and status == 128 + int(sig)
+    assert line == f"splice: interrupted ({signal.Signals(sig).name}); nothing was written"
+    assert _outputs_consistent(tmp_path, outs, line, status) == "none"
+
+
+def test_a_signal_swallowed_by_a_callback_still_interrupts(tmp_path, monkeypatch):
+    """Fault: a SIGTERM arriving while Python ran a weakref callback or a ``__del__`` was printed
+    as 'Exception ignored in ...' on stderr and lost: the run went on and exited 0.  The handler
+    records it; the run stops before committing, with the one-line message and nothing written."""
+    from splicer import cli, plot
+
+    class Collected:
+        def __del__(self):
+            cli._raise_signalled(signal.SIGTERM, None)  # as the handler does, inside a finaliser
+
+    real = plot.plot_alignment
+
+    def drawing(result, path):
+        Collected()  # finalised at once: the exception is unraisable, Python only reports it
+        return real(result, path)
+
+    monkeypatch.setattr(plot, "plot_alignment", drawing)
+    body, hands = small_files(tmp_path)
+    outs = {"bvh": tmp_path / "out.bvh", "report": tmp_path / "r.json", "plot": tmp_path / "p.png"}
+    status, _, err = run_cli([body, hands, "-o", outs["bvh"], "--report", outs["report"], "--plot", outs["plot"], "-q"])
+    assert status == 128 + int(signal.SIGTERM) and "Exception ignored" not in err
+    line = one_error_line(err)
+    assert line == "splice: interrupted (SIGTERM); nothing was written"
+    assert _outputs_consistent(tmp_path, outs, line, status) == "none"
+
+
 def test_signals_wait_during_the_commit(tmp_path, monkeypatch):
     """A SIGINT arriving during the renames is delivered after the last one."""
     body, hands = small_files(tmp_path)

@@ -271,6 +271,53 @@ print('REAPPLY', sorted(bpy.ops.splicer.reapply_time_map()))
                      "REAPPLY ['FINISHED']"], r.stdout[-2000:] + r.stderr[-2000:]
 
 
+def _tiny_wheel(folder: Path) -> Path:
+    """A pure-Python wheel (``splicer_probe``, ``VALUE = 42``), written by hand."""
+    import base64
+    import hashlib
+    import zipfile
+
+    name, ver = "splicer_probe", "0.1"
+    files = {f"{name}/__init__.py": "VALUE = 42\n",
+             f"{name}-{ver}.dist-info/METADATA": f"Metadata-Version: 2.1\nName: {name}\nVersion: {ver}\n",
+             f"{name}-{ver}.dist-info/WHEEL": "Wheel-Version: 1.0\nGenerator: test\nRoot-Is-Purelib: true\nTag: py3-none-any\n"}
+
+    def digest(text):
+        h = base64.urlsafe_b64encode(hashlib.sha256(text.encode()).digest()).rstrip(b"=").decode()
+        return f"sha256={h},{len(text.encode())}"
+
+    files[f"{name}-{ver}.dist-info/RECORD"] = ("".join(f"{k},{digest(v)}\n" for k, v in files.items())
+                                              + f"{name}-{ver}.dist-info/RECORD,,\n")
+    whl = folder / f"{name}-{ver}-py3-none-any.whl"
+    with zipfile.ZipFile(whl, "w") as z:
+        for k, v in files.items():
+            z.writestr(k, v)
+    return whl
+
+
+def test_bundled_wheels_install_with_the_extension(tmp_path):
+    """`--wheels DIR`: the dependency wheels go into the zip and its manifest, and Blender's own
+    extension installer (Install from Disk: no terminal) installs them where the add-on imports
+    them.  Shown with a tiny wheel; splicer's real dependencies are the same mechanism."""
+    from splicer.blender.build import build
+
+    wheels = tmp_path / "wheels"
+    wheels.mkdir()
+    _tiny_wheel(wheels)
+    z = build(tmp_path / "splicer_blender.zip", wheels)
+    code = f"""import bpy
+r = bpy.ops.extensions.package_install_files(filepath={str(z)!r}, repo='user_default', enable_on_install=True)
+import splicer_probe
+print('RESULT', sorted(r), splicer_probe.VALUE, '/extensions/' in splicer_probe.__file__)
+"""
+    home = tmp_path / "home"
+    home.mkdir()
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=home,
+                       env={"HOME": str(home), "PATH": "/usr/bin:/bin"}, timeout=300)
+    lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT")]
+    assert lines == ["RESULT ['FINISHED'] 42 True"], r.stdout[-2000:] + r.stderr[-2000:]
+
+
 def test_fbx_with_a_light_a_moving_bone_and_ascii_fbx(tmp_path):
     """Blender 5.0's importer fails on lights (worked around), a bone's own translation is
     warned about, and ASCII FBX is refused (one line)."""

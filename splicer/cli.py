@@ -54,28 +54,27 @@ def _band_text(text: str) -> str:
     return text
 
 
-def _noise_ratio(text: str) -> float | str | None:
-    if text in ("auto", "off"):
-        return None if text == "off" else text
+def _finite_at_least(text: str, low: float, expected: str) -> float:
+    """``text`` as a finite number >= ``low``, else the argparse error naming what was expected."""
     try:
         v = float(text)
     except ValueError:
         v = math.nan
-    if not (v >= 1.0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"must be auto, off or a number >= 1 (e.g. 1.2), not {text!r}")
+    if not (v >= low and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be {expected}, not {text!r}")
     return v
+
+
+def _noise_ratio(text: str) -> float | str | None:
+    if text in ("auto", "off"):
+        return None if text == "off" else text
+    return _finite_at_least(text, 1.0, "auto, off or a number >= 1 (e.g. 1.2)")
 
 
 def _position_weight(text: str) -> float | str:
     if text == "auto":
         return text
-    try:
-        v = float(text)
-    except ValueError:
-        v = math.nan
-    if not (v >= 0.0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"must be auto or a number >= 0 (e.g. 3; 0 is the paper's D1 alone), not {text!r}")
-    return v
+    return _finite_at_least(text, 0.0, "auto or a number >= 0 (e.g. 3; 0 is the paper's D1 alone)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -234,15 +233,17 @@ def _quiet_unraisable(previous):
     ignored" on stderr) and passes anything else on to ``previous``."""
 
     def hook(unraisable):
-        if isinstance(unraisable.exc_value, (_Signalled, KeyboardInterrupt)):
-            return
+        if _RECEIVED and isinstance(unraisable.exc_value, (_Signalled, KeyboardInterrupt)):
+            return  # recorded: main acts on it
         previous(unraisable)
 
     return hook
 
 
 def _install_handlers() -> dict:
-    """SIGTERM and SIGHUP raise :class:`_Signalled` (so the outputs are cleaned up) while main runs.
+    """SIGTERM and SIGHUP raise :class:`_Signalled` (so the outputs are cleaned up) while main runs,
+    and SIGINT raises KeyboardInterrupt as Python's own handler does; each is recorded in
+    :data:`_RECEIVED` first.
 
     Only in the main thread, and only where the signal has its default action (a SIGHUP
     ignored by ``nohup`` stays ignored).  Returns the previous handlers.

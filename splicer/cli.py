@@ -112,6 +112,9 @@ def build_parser() -> argparse.ArgumentParser:
                         f"beside D1's direction signs: auto (default: {D.POSITION_WEIGHT_NOISY:g} where a noisier "
                         f"take's markers are smoothed, else {D.POSITION_WEIGHT:g} with fixed ends and 0 open-ended; "
                         "0 against hand-only files and optical markers), a number W, or 0 (D1 alone, the paper)")
+    p.add_argument("--pass1-arms", choices=("both", "each"), default=D.PASS1_ARMS,
+                   help="both (default): one pass 1 weighs both arms, as both hands of the hands take share its "
+                        "clock (pass 2 stays per side); each: every side its own pass 1 (the paper)")
     p.add_argument("--band2", default=None, type=_band_text, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")
@@ -332,7 +335,7 @@ def main(argv=None) -> int:
                             mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on",
                             hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
                             offset_s=args.offset, noise_ratio=args.noise_ratio,
-                            position_weight=args.position_weight)
+                            position_weight=args.position_weight, pass1_arms=args.pass1_arms)
         after = {}
         with tx:  # every output is staged, and appears only at tx.commit()
             progress("write", 0.0)

@@ -35,6 +35,7 @@ class SpliceOptions:
     posterior_radius_s: float = D.POSTERIOR_RADIUS_S  # pass 1: hands time each side of the best path weighed, seconds
     noise_ratio: float | str | None = "auto"  # "auto": when one take's signs flip over NOISE_TRIGGER times as often, smooth both until within NOISE_RATIO; a number R: whenever over R, until within R; None: off
     position_weight: float | str = "auto"  # pass 1 adds this many D1 units per unit of the position term; "auto": POSITION_WEIGHT_NOISY where noise matching smoothed the pair, else POSITION_WEIGHT with fixed ends and 0 open-ended (stages.align.position_weights); 0: D1 alone (the paper)
+    pass1_arms: str = D.PASS1_ARMS  # "both": one pass 1 weighs both arms (both hands of one hands take share its clock; stages.align.align_pair); "each": each side's own pass 1 (the paper)
     timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
     blend_window: int = D.BLEND_WINDOW_FRAMES  # median merge: frames blended each side of a jump
     uncovered_blend_s: float = 0.25  # body frames without hands material: blend in/out over this, seconds
@@ -57,7 +58,7 @@ class SpliceOptions:
 
 _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
-            "coarse": ("auto", "on", "off"),
+            "coarse": ("auto", "on", "off"), "pass1_arms": ("both", "each"),
             "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "auto", "open", "fixed")}
 _NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "sign_ramp", "temperature_s",
                 "posterior_radius_s", "timemap_sigma_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",

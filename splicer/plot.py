@@ -68,8 +68,12 @@ def _pins(ax, x, y, tol) -> None:
         ax.errorbar(x, y, yerr=np.stack([tol, tol]), fmt="o", color="orange", ms=4, capsize=3, lw=1.5)
 
 
-def _draw_pass(ax, pr, title, constraints=(), *, max_pixels: int = _MAX_PIXELS):
-    img, rs, cs = band_image(pr, max_pixels=max_pixels)
+def _draw_pass(ax, pr, title, constraints=(), *, max_pixels: int = _MAX_PIXELS, images: dict | None = None):
+    """``images``: band images already computed, by pass (one pass 1 shared by both sides is sampled once)."""
+    images = {} if images is None else images
+    if id(pr) not in images:
+        images[id(pr)] = band_image(pr, max_pixels=max_pixels)
+    img, rs, cs = images[id(pr)]
     n, m = pr.band.n, pr.band.m
     im = ax.imshow(img.T, origin="lower", aspect="auto", cmap="viridis", interpolation="nearest",
                    extent=(-0.5 * rs, (n - 1) + 0.5 * rs, -0.5 * cs, (m - 1) + 0.5 * cs))
@@ -164,6 +168,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         cax.yaxis.set_major_locator(MaxNLocator(5))
         cax.minorticks_off()
 
+    images: dict = {}  # band images by pass: a pass 1 shared by both sides is sampled once
     for row, s in enumerate(sides):
         n = len(s.hands_frame)
         cons = s.alignment.constraints
@@ -171,8 +176,10 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         if s.pass1 is not None:
             ax, cax = pass_axes(row, k)
             w = s.pass1.position_weight
-            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, phase metric D1{' + positions' if w else ''} "
-                                         f"(band {s.pass1.band.width:.0f} frames)", cons, max_pixels=px)
+            both = " of both arms" if s.pass1.arms > 1 else ""
+            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, phase metric D1{' + positions' if w else ''}{both} "
+                                         f"(band {s.pass1.band.width:.0f} frames)", cons, max_pixels=px,
+                                 images=images)
             ax.set_ylabel("hands frame (body rate)")
             colorbar(im, cax, f"D1 + {w:g} x position term" if w else "D1 (squared sign differences)")
             k += 1

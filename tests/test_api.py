@@ -125,7 +125,7 @@ def test_band_errors_are_translated_to_pins():
     e = BandError("a band of width W=3 frames cannot connect ... constraint #0 (x=5, y=9)")
     e.segment, e.min_width = 1, 41.2
     pins = (Pin(5, 18, 0, "s.yaml, line 2: pair 1", 2),)
-    msg = str(_pin_error(e, pins, "right"))
+    msg = str(_pin_error(e, pins, "right side"))
     assert msg == ("right side: the band cannot connect s.yaml, line 2: pair 1 (body 5, hands 18, tolerance 0) to "
                    "the end of both takes; a band of at least 41 body frames would (--band 42)")
 

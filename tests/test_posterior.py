@@ -187,8 +187,10 @@ def test_bad_arguments(kw, msg):
 def test_splice_is_smooth_in_its_input():
     """1e-5 degrees of noise on every rotation channel of the bundled sample (far below capture
     noise: Blender's float32 round trip) moves the time map by hundredths of a hands frame and the
-    fingers by hundredths of a degree (measured 0.012 frames and 0.018 deg over seeds 0-2).  The
-    best path alone moved them by up to 3 frames and 5.4 deg: D1's near-equal paths swapped."""
+    fingers by hundredths of a degree (measured over seeds 0-2: 0.012-0.020 frames and 0.043-0.059
+    deg with one pass 1 for both arms, whose time map runs through faster finger motion; 0.010-0.015
+    frames and 0.016-0.019 deg with each side alone).  The best path alone moved them by up to 3
+    frames and 5.4 deg: D1's near-equal paths swapped."""
     from pathlib import Path
 
     from splicer.io.bvh import read_bvh
@@ -210,7 +212,7 @@ def test_splice_is_smooth_in_its_input():
     got = splice(noisy(body, rng), noisy(hands, rng), config=sync)
     for side in ref.sides:
         assert np.nanmax(np.abs(got.sides[side].hands_frame - ref.sides[side].hands_frame)) < 0.05, side
-    assert quat_angle_deg(got.motion.rotations, ref.motion.rotations).max() < 0.05
+    assert quat_angle_deg(got.motion.rotations, ref.motion.rotations).max() < 0.08
 
 
 def test_temperature_is_per_second_of_body_time(monkeypatch):

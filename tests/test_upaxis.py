@@ -96,3 +96,16 @@ def test_splice_on_a_z_rest_take_aligns_as_with_up_y(sample):
     # measured: 2.2 frames (as the original Y-up files) against 13.8 reading the rest skeleton
     assert err(auto) == pytest.approx(err(orig), abs=0.05)
     assert err(rest) > 3 * err(auto)
+
+
+def test_root_heading_of_a_z_rest_take(sample):
+    """The root's heading is measured on its own axis after its up axis (cyclically): for a Z-up
+    rest skeleton with Y-up motion that is not its z axis, which stands vertical (measuring on it
+    gave a heading jumping by 180 degrees from frame to frame: 86, -90, 257 degrees ...), and the
+    heading is the Y-rest take's plus a constant (here 90 degrees)."""
+    from splicer.rig.markers import root_heading
+
+    body, _, _ = sample
+    hy, hz = root_heading(body, 1), root_heading(restate_rest_axes(body, Q_X90), 1)
+    d = np.degrees(hz - hy)
+    assert np.ptp(d) < 1e-4 and d[0] == pytest.approx(90.0, abs=1e-4)  # BVH text precision

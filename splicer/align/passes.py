@@ -23,8 +23,8 @@ from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT,
 from .paths import (_coarse_constraints, coarse_constraints, compose, guided_band, hold_ends, path_median,  # noqa: F401
                     remap_constraints, resample_markers, warp_markers)
 
-__all__ = ["PassResult", "resample_markers", "pass1", "pass2", "path_median", "compose", "guided_band",
-           "remap_constraints", "warp_markers", "coarse_constraints", "hold_ends"]
+__all__ = ["PassResult", "Arm", "arm_paths", "arm_alone", "resample_markers", "pass1", "pass2", "path_median", "compose",
+           "guided_band", "remap_constraints", "warp_markers", "coarse_constraints", "hold_ends"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +68,15 @@ class PassResult:
         expected path, the confidence); ``local_cost`` itself always computes afresh.
     position_weight : float
         Pass 1: the weight of the position term in its local cost (0: D1 alone, the paper).
+    arms : int
+        Pass 1: how many arms' local costs it averaged (1: this side's alone, the paper; 2:
+        both hands of one hands take, :class:`Arm`).
+    arm_costs : tuple of callable
+        Pass 1 over several arms: each arm's own local cost, in their order (for
+        :func:`arm_paths`); empty with one arm.
+    arm_uncovered : tuple of float
+        Open ends over several arms: each arm's own uncovered penalty (its own costs' quantile),
+        for :func:`arm_paths`; empty otherwise.
     """
 
     path: np.ndarray
@@ -85,9 +94,145 @@ class PassResult:
     notes: tuple = ()
     kept_cost: object = None
     position_weight: float = 0.0
+    arms: int = 1
+    arm_costs: tuple = ()
+    arm_uncovered: tuple = ()
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
+
+
+@dataclass(frozen=True, eq=False)
+class Arm:
+    """Another arm for pass 1 to weigh: its markers in both takes and its phase-metric settings.
+
+    Both hands of one hands take were captured on one clock, and so were both arms of the
+    body take: one time map serves both sides.  Given an :class:`Arm` in ``others``,
+    :func:`pass1` averages this arm's local cost with the first arm's, so a stretch where one
+    arm's motion says little (a hold, a gesture performed differently) is carried by the other.
+
+    Attributes
+    ----------
+    body, hands : Markers
+        This arm's markers, with the first arm's frame counts and rate.
+    smooth_s : float
+        Its phase metric's marker smoothing (noise matching decides it per side).
+    position_weight : float
+        Its position term's weight (0 where positions do not compare: a hand-only file, optical markers).
+    """
+
+    body: Markers
+    hands: Markers
+    smooth_s: float = SMOOTH_S
+    position_weight: float = 0.0
+
+
+def _arms(body, hands, smooth_s, position_weight, others) -> list:
+    """Every arm of a pass 1, the first one given as ``pass1``'s own arguments; checked to share frames."""
+    arms = [Arm(body, hands, smooth_s, position_weight)] + list(others)
+    for a in arms[1:]:
+        if not isinstance(a, Arm):
+            raise TypeError(f"others must hold Arm objects, got {type(a).__name__}")
+        if (a.body.n_frames, a.hands.n_frames) != (body.n_frames, hands.n_frames) or a.body.fps != body.fps \
+                or a.hands.fps != hands.fps:
+            raise ValueError(f"an arm of pass 1 has {a.body.n_frames} x {a.hands.n_frames} frames at "
+                             f"{a.body.fps:g} / {a.hands.fps:g} fps; the first has {body.n_frames} x {hands.n_frames} "
+                             f"at {body.fps:g} / {hands.fps:g}: arms sharing a time map share their takes' frames")
+    return arms
+
+
+def _resampled(arms: list, fps: float) -> list:
+    return [Arm(resample_markers(a.body, fps), resample_markers(a.hands, fps), a.smooth_s, a.position_weight)
+            for a in arms]
+
+
+def _arm_features(arms: list, dead_zone: float, sign_ramp: float) -> list:
+    """Each arm's (body, hands) phase features."""
+    return [tuple(phase_features(x, smooth_s=a.smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp,
+                                 position=a.position_weight > 0) for x in (a.body, a.hands)) for a in arms]
+
+
+def _arms_cost(arms: list, features: list, theta: str):
+    """Pass 1's local cost: one arm's D1 (+ position term), or the mean over the arms; and each arm's
+    own (an empty tuple with one arm)."""
+    costs = [d1_cost(fb, fh, theta=theta, position_weight=a.position_weight) for a, (fb, fh) in zip(arms, features)]
+    if len(costs) == 1:
+        return costs[0], ()
+
+    def mean(band, i0, i1):
+        out = costs[0](band, i0, i1)
+        for c in costs[1:]:
+            out = out + c(band, i0, i1)
+        return out / len(costs)
+
+    return mean, tuple(costs)
+
+
+def arm_alone(p: PassResult, k: int) -> np.ndarray:
+    """Arm ``k``'s own open-ended alignment, as if pass 1 had been run for it alone: its own
+    path over the locating pass's coarse matrix with its own uncovered penalty, then its own
+    full-rate path in a band of ``p``'s width around that (:func:`guided_band`).
+
+    Parameters
+    ----------
+    p : PassResult
+        An open-ended pass 1 over several arms, with its locating pass (``p.located``).
+    k : int
+        The arm, in ``p``'s order.
+
+    Returns
+    -------
+    np.ndarray [shape=(K, 2), dtype=int64]
+        The full-rate path.
+    """
+    loc = p.located
+    if p.ends != "open" or loc is None or not loc.arm_costs or not 0 <= k < len(p.arm_costs):
+        raise ValueError("arm_alone needs an open-ended pass 1 over several arms with its locating pass")
+    u = p.arm_uncovered[k] if k < len(p.arm_uncovered) else p.uncovered_cost
+    coarse = arm_paths(loc, own_penalty=True)[k]
+    factor = p.fps / loc.fps
+    band = p.band
+    if factor > 1.0 + 1e-9:
+        try:
+            band = guided_band(coarse, factor, band.n, band.m, band.width, band.constraints, open_begin=True,
+                               open_end=True)
+        except BandError:
+            band = p.band
+    return _run(p.arm_costs[k], band, None, open_begin=True, open_end=True, uncovered_cost=u,
+                step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight).path
+
+
+def arm_paths(p: PassResult, progress=None, *, own_penalty: bool = False) -> list:
+    """Each arm's own best path inside a pass 1 over several arms: the pass's band, end
+    conditions and penalties, with that arm's local cost alone (a cross-check: where the arms'
+    own paths part, the motion of at least one says little; :mod:`splicer.stages.crosscheck`).
+
+    Open-ended, the pass's uncovered penalty applies, or with ``own_penalty`` each arm's own
+    (``p.arm_uncovered``: as if the arm were aligned alone).  Works on the locating pass too
+    (``p.located``: the whole coarse matrix).
+
+    Returns
+    -------
+    list of np.ndarray [shape=(K, 2), dtype=int64]
+        Per arm (in ``p``'s order), its path of (body frame, hands frame) cells, like
+        ``p.path``.  Empty for one arm.
+    """
+    out = []
+    for k, cost in enumerate(p.arm_costs):
+        ends = {}
+        if p.ends == "open":  # the pass's uncovered penalty, or each arm's own, as if it were aligned alone
+            u = p.arm_uncovered[k] if own_penalty and k < len(p.arm_uncovered) else p.uncovered_cost
+            ends = dict(open_begin=True, open_end=True, uncovered_cost=u)
+        frac = (lambda f, k=k: progress((k + f) / len(p.arm_costs))) if progress is not None else None
+        out.append(_run(cost, p.band, frac, step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight,
+                        **ends).path)
+    return out
+
+
+def _arms_sample(arms: list, features: list, theta: str) -> np.ndarray:
+    """Pass 1's local cost on :func:`d1_sample`'s pairs (the same pairs for every arm: same frames, same seed)."""
+    out = [d1_sample(fb, fh, theta=theta, position_weight=a.position_weight) for a, (fb, fh) in zip(arms, features)]
+    return sum(out) / len(out)
 
 
 def _run(cost, band: Band, progress=None, **ends) -> DTWResult:
@@ -110,7 +255,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
           horizontal_weight: float | None = None, guide: np.ndarray | None = None,
-          cache_bytes: int = CACHE_BYTES, position_weight: float = 0.0) -> PassResult:
+          cache_bytes: int = CACHE_BYTES, position_weight: float = 0.0, others=()) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -175,28 +320,35 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     position_weight : float
         Beyond the paper: D1 units per unit of the position term added to D1 in every DTW of
         the pass (:func:`splicer.align.costs.d1_cost`); 0 is D1 alone (the paper).
+    others : sequence of Arm
+        Beyond the paper: more arms sharing this time map (the other hand of the same hands
+        take).  The local cost is then the mean of every arm's (``body``/``hands`` with
+        ``smooth_s`` and ``position_weight`` being the first), in every DTW of the pass and in
+        the uncovered penalty.  Empty (the default): this arm alone.
 
     Returns
     -------
     PassResult
         With ``covered``, the first and last body frame the path covers (the whole body with
-        fixed ends), and ``uncovered_cost``.
+        fixed ends), ``uncovered_cost`` and ``arms``.
+
+    Raises
+    ------
+    ValueError
+        ``ends`` unknown, or an arm in ``others`` whose takes have other frame counts or rates.
     """
     if ends not in ("fixed", "open"):
         raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
+    arms = _arms(body, hands, smooth_s, position_weight, others)
     if ends == "open":
-        return _pass1_open(body, hands, width=width, constraints=constraints, smooth_s=smooth_s,
+        return _pass1_open(arms, width=width, constraints=constraints,
                            dead_zone=dead_zone, sign_ramp=sign_ramp, theta=theta,
                            coarse_fps=OPEN_COARSE_FPS if coarse_fps is None else coarse_fps,
                            coarse_width=coarse_width, progress=progress, offset_s=offset_s,
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
                            max_coarse_cells=max_coarse_cells, step_penalty=step_penalty, cache_bytes=cache_bytes,
-                           position_weight=position_weight,
                            horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight)
     hw = 1.0 if horizontal_weight is None else float(horizontal_weight)
-    pos = position_weight > 0
-    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
-    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
     n, m = body.n_frames, hands.n_frames
     notes: tuple = ()
     if guide is not None:
@@ -206,12 +358,13 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
             band = make_band(n, m, width, constraints)  # the guide missed a pin's window: the paper's band
     elif coarse_fps is not None and coarse_fps < body.fps:
         factor = body.fps / coarse_fps
-        cb, ch = resample_markers(body, coarse_fps), resample_markers(hands, coarse_fps)
+        carms = _resampled(arms, coarse_fps)
+        cb, ch = carms[0].body, carms[0].hands
         ccons = _coarse_constraints(constraints, factor, cb.n_frames, ch.n_frames)
         cw = (coarse_width if coarse_width is not None else width) / factor
         coarse = pass1(cb, ch, width=cw, constraints=ccons, smooth_s=smooth_s, dead_zone=dead_zone,
-                       sign_ramp=sign_ramp, theta=theta,
-                       step_penalty=step_penalty, horizontal_weight=hw, cache_bytes=0, position_weight=position_weight)
+                       sign_ramp=sign_ramp, theta=theta, step_penalty=step_penalty, horizontal_weight=hw,
+                       cache_bytes=0, position_weight=position_weight, others=carms[1:])
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints)
         except BandError:
@@ -220,33 +373,37 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                      f"band of {width:g} frames instead (a long take may drift out of it: check the pins)",)
     else:
         band = make_band(n, m, width, constraints)
-    d1 = d1_cost(fb, fh, theta=theta, position_weight=position_weight)
+    d1, each = _arms_cost(arms, _arm_features(arms, dead_zone, sign_ramp), theta)
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
     res = _run(kept, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw,
-                      notes=notes, kept_cost=kept, position_weight=float(position_weight))
+                      notes=notes, kept_cost=kept, position_weight=float(position_weight), arms=len(arms),
+                      arm_costs=each)
 
 
-def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
+def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
                 offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight,
-                cache_bytes, position_weight):
+                cache_bytes):
+    body, hands, position_weight = arms[0].body, arms[0].hands, arms[0].position_weight
     n, m = body.n_frames, hands.n_frames
     cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
     factor = body.fps / cfps
     if factor > 1.0 + 1e-9:
-        cb, ch = resample_markers(body, cfps), resample_markers(hands, cfps)
+        carms = _resampled(arms, cfps)
     else:
-        factor, cb, ch = 1.0, body, hands
-    nc, mc = cb.n_frames, ch.n_frames
+        factor, carms = 1.0, arms
+    nc, mc = carms[0].body.n_frames, carms[0].hands.n_frames
     notes: tuple = ()
     ccons = _coarse_constraints(constraints, factor, nc, mc) if factor > 1.0 else list(constraints)
-    pos = position_weight > 0
-    fcb = phase_features(cb, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
-    fch = phase_features(ch, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
-    d1c = d1_cost(fcb, fch, theta=theta, position_weight=position_weight)
+    cfeat = _arm_features(carms, dead_zone, sign_ramp)
+    d1c, ceach = _arms_cost(carms, cfeat, theta)
     u = uncovered_cost
+    arm_u: tuple = ()
     if u is None:
-        u = uncovered_penalty(d1_sample(fcb, fch, theta=theta, position_weight=position_weight), uncovered_quantile)
+        u = uncovered_penalty(_arms_sample(carms, cfeat, theta), uncovered_quantile)
+        if len(carms) > 1:  # each arm's own, for its own path (arm_paths)
+            arm_u = tuple(uncovered_penalty(_arms_sample([a], [f], theta), uncovered_quantile)
+                          for a, f in zip(carms, cfeat))
     if offset_s is None:
         cband = full_band(nc, mc, ccons)
     else:
@@ -255,7 +412,8 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ra
     coarse = dtw(lambda i0, i1: d1c(cband, i0, i1), cband, open_begin=True, open_end=True, uncovered_cost=u,
                  step_penalty=step_penalty, horizontal_weight=horizontal_weight)
     located = PassResult(coarse.path, coarse.cost, cband, "pass1 (locating)", d1c, coarse.covered, float(u), "open",
-                         step_penalty, float(horizontal_weight), None, cfps, position_weight=float(position_weight))
+                         step_penalty, float(horizontal_weight), None, cfps, position_weight=float(position_weight),
+                         arms=len(arms), arm_costs=ceach, arm_uncovered=arm_u)
     if progress is not None:
         progress(0.0)
     if factor > 1.0:
@@ -271,14 +429,13 @@ def _pass1_open(body, hands, *, width, constraints, smooth_s, dead_zone, sign_ra
                      "matrix at full rate instead",)
     else:
         band = cband
-    fb = phase_features(body, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
-    fh = phase_features(hands, smooth_s=smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp, position=pos)
-    d1 = d1_cost(fb, fh, theta=theta, position_weight=position_weight)
+    d1, each = (d1c, ceach) if carms is arms else _arms_cost(arms, _arm_features(arms, dead_zone, sign_ramp), theta)
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
     res = _run(kept, band, progress, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
                horizontal_weight=horizontal_weight)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
-                      float(horizontal_weight), located, body.fps, notes, kept, float(position_weight))
+                      float(horizontal_weight), located, body.fps, notes, kept, float(position_weight), len(arms),
+                      each, arm_u)
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

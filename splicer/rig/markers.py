@@ -79,9 +79,13 @@ def root_heading(motion: Motion, up: int) -> np.ndarray:
     """
     rot, _ = global_transforms(motion, [0])
     a, b = (up + 1) % 3, (up + 2) % 3
-    fwd = np.zeros(3)
-    fwd[a] = 1.0
-    v = quat_rotate(rot[:, 0], fwd)
+    # the root's own axes: the one that stands along the world's up axis over the take is its
+    # "up" (the rest skeleton's, e.g. z in a Z-up rest exported with Y-up motion); the heading is
+    # measured on the next one, cyclically, as a = up + 1 is for world axes.  A skeleton whose
+    # root axes are the world's (the usual case) measures on axis a, as always.
+    axes = np.stack([quat_rotate(rot[:, 0], e) for e in np.eye(3)], axis=1)  # (T, 3 root axes, 3 world)
+    local_up = int(np.argmax(np.abs(axes[:, :, up].mean(axis=0))))
+    v = axes[:, (local_up + 1) % 3]
     return np.unwrap(np.arctan2(v[:, b], v[:, a]))
 
 

@@ -1,8 +1,13 @@
-"""Stage 4, align: pass 1 (open or fixed ends), pass 2, confidence, for one side."""
+"""Stage 4, align: pass 1 (open or fixed ends; one side, or both arms at once), pass 2 and the
+confidence per side.
+
+:func:`locate` runs pass 1 and its expected path, :func:`refine` pass 2 and the confidence;
+:func:`align_side` is both for one side, :func:`align_pair` for the pair (one pass 1 for both
+arms when :func:`arms_together`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -13,7 +18,8 @@ from ..options import SpliceOptions
 from .markers import SideMarkers
 from .log import Log
 
-__all__ = ['Alignment', 'phase_smoothing', 'align_side', 'agree_ends', 'align_pair']
+__all__ = ['Alignment', 'Located', 'phase_smoothing', 'locate', 'refine', 'align_side', 'arms_together',
+           'agree_ends', 'align_pair']
 
 
 # ---------------------------------------------------------------- stage 4: align
@@ -42,26 +48,27 @@ class Alignment:
     confidence: object = None  # per-frame confidence and estimated error, when computed
     ends: str = "fixed"  # the end conditions used: "open" or "fixed"
     posterior: object = None  # pass 1's expected path and its spread (splicer.align.posterior), when used
+    own: np.ndarray | None = None  # pass 1 over both arms: this arm's own path in its band, per body frame
 
     def __repr__(self) -> str:
         return f"Alignment(body_frames={len(self.per_frame)}, passes={[p.name for p in (self.pass1, self.pass2) if p]})"
 
 
-def _pin_error(e: SplicerError, pins: tuple[Pin, ...], side: str) -> SplicerError:
-    """A band/constraint error in terms of the user's pins (file, line, numbers)."""
+def _pin_error(e: SplicerError, pins: tuple[Pin, ...], who: str) -> SplicerError:
+    """A band/constraint error in terms of the user's pins (file, line, numbers); ``who``: e.g. ``"left side"``."""
     seg = getattr(e, "segment", None)
     if isinstance(e, BandError) and seg is not None and pins:
         before = "the start of both takes" if seg == 0 else pins[seg - 1].describe()
         after = "the end of both takes" if seg >= len(pins) else pins[seg].describe()
         w = getattr(e, "min_width", None)
         wtxt = f"; a band of at least {w:.0f} body frames would (--band {int(np.ceil(w))})" if w else ""
-        return type(e)(f"{side} side: the band cannot connect {before} to {after}{wtxt}")
+        return type(e)(f"{who}: the band cannot connect {before} to {after}{wtxt}")
     pair = getattr(e, "pair", None)
     if pair is not None and pins:
         a, b = pins[pair[0]], pins[pair[1]]
-        return type(e)(f"{side} side: {b.describe()} cannot follow {a.describe()}: adjacent body frames cannot "
+        return type(e)(f"{who}: {b.describe()} cannot follow {a.describe()}: adjacent body frames cannot "
                        "match hands frames further apart than their tolerances allow")
-    return type(e)(f"{side} side: {e}")
+    return type(e)(f"{who}: {e}")
 
 
 def phase_smoothing(markers: dict, opts: SpliceOptions, log: Log | None = None) -> dict:
@@ -142,10 +149,231 @@ def position_weights(opts: SpliceOptions, markers: SideMarkers, noisy: bool) -> 
     return D.POSITION_WEIGHT, 0.0
 
 
+@dataclass(frozen=True, eq=False)
+class Located:
+    """Pass 1 of one side, or of both hands together, before pass 2.
+
+    Attributes
+    ----------
+    pass1 : PassResult or None
+        None when only pass 2 runs (``passes="pass2"``).
+    per_frame : np.ndarray [shape=(n,)] or None
+        Pass 1's expected path: the hands frame (common rate) per body frame; NaN where uncovered.
+    posterior : object or None
+        Its spread (:mod:`splicer.align.posterior`).
+    covered : tuple or None
+        ``(first, last)`` body frames the hands cover (open ends); None: all.
+    ends : {"open", "fixed"}
+    width1, width2 : float
+        The passes' band widths, body frames.
+    constraints : tuple of Constraint
+        The pins as DTW constraints (body frame, common hands frame).
+    own : dict of str -> np.ndarray
+        Pass 1 over several arms: each side's own best path in the same band, per body frame
+        (:func:`splicer.align.passes.arm_paths`), for the cross-check; empty for one side.
+    """
+
+    pass1: object
+    per_frame: np.ndarray | None
+    posterior: object
+    covered: tuple | None
+    ends: str
+    width1: float
+    width2: float
+    constraints: tuple
+    own: dict = field(default_factory=dict)
+
+    def release(self) -> None:
+        """Free pass 1's kept costs (:mod:`splicer.align.costcache`): no later stage reads them."""
+        if self.pass1 is not None and self.pass1.kept_cost is not None:
+            self.pass1.kept_cost.release()
+
+
+def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, others: tuple = (),
+           ends: str = "auto", offset_s: float | None = None, guide: np.ndarray | None = None,
+           smooth_s: float | None = None, noisy: bool | None = None, other_smooth: tuple = ()) -> Located:
+    """Pass 1 (phase metric D1) of one side, or of several arms sharing one time map, and its expected path.
+
+    Parameters
+    ----------
+    markers : SideMarkers
+        The first arm (its pins, frame spaces and band).
+    others : tuple of SideMarkers
+        More arms weighed in pass 1 (the other hand of the same hands take: :func:`align_pair`);
+        same frames and pins as ``markers``.
+    other_smooth : tuple of float
+        Their ``smooth_s``, one each (default: ``smooth_s``).
+    ends, offset_s, guide, smooth_s, noisy
+        As :func:`align_side`.
+
+    Raises
+    ------
+    SplicerError
+        A band that cannot reach the pins, named by their file and line.
+    """
+    from ..align.passes import Arm, arm_paths, hold_ends, pass1, path_median
+    from ..align.band import band_frames
+    from ..align.band_width import pass_widths
+    from ..align.posterior import expected_frames
+
+    log = log or Log()
+    sides = [markers.side] + [o.side for o in others]
+    who = f"{markers.side} side" if not others else " and ".join(sides) + " sides"
+    label = markers.side if not others else "both hands"
+    bmk, hmk = markers.body, markers.hands
+    n, m = bmk.n_frames, hmk.n_frames
+    fps = markers.spaces.body_fps
+
+    if smooth_s is None:  # one side alone: its own noise matching
+        smooth_s = phase_smoothing({markers.side: markers}, opts, log)[markers.side]
+    if noisy is None:
+        noisy = smooth_s > opts.smooth_s
+    pos_fixed, pos_open = position_weights(opts, markers, noisy)
+    extra = []
+    for k, o in enumerate(others):
+        o_fixed, o_open = position_weights(opts, o, noisy)
+        osm = other_smooth[k] if k < len(other_smooth) else smooth_s
+        extra.append((o, osm, o_fixed, o_open))
+
+    def run_pass1(mode: str, guide_path=None):
+        open_ends = mode == "open"
+        cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
+        guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
+        w1, w2 = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=open_ends, guided=guided)
+        arms = tuple(Arm(o.body, o.hands, osm, w_open if open_ends else w_fixed) for o, osm, w_fixed, w_open in extra)
+        p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
+                  sign_ramp=opts.sign_ramp, position_weight=pos_open if open_ends else pos_fixed,
+                  theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
+                  uncovered_quantile=opts.uncovered_quantile,
+                  coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
+                  coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
+                  guide=None if open_ends else guide_path, others=arms,
+                  progress=lambda f: log.progress(f"{label}: pass 1", f))
+        return p, w1, w2, cons
+
+    p1 = posterior = per_frame = None
+    covered = None
+    own = {}
+    used = "fixed" if ends == "fixed" else "open"
+    try:
+        if opts.passes in ("pass1", "both"):
+            log.progress(f"{label}: pass 1", 0.0)
+            p1, w1, w2, cons = run_pass1(used, guide)
+            check = lambda f: log.progress(f"{label}: check", f)  # noqa: E731
+            own_paths = arm_paths(p1, progress=check) if others else []
+            if ends == "auto":
+                why = _choose_ends(p1, n, m, fps, markers.pins)
+                together = p1.path
+                if why is None and others:  # an arm's own path corner to corner: the takes start and end together
+                    arm, together = _arm_together(p1, own_paths, sides, n, m, fps, opts.coarse_above_s)
+                    if together is not None:
+                        why = _TOGETHER_WHY
+                        log.note(f"{who}: the {arm} arm's own alignment runs from the takes' first frames to their "
+                                 "last; both arms' takes start and end together, so they are aligned end to end "
+                                 "(--ends open keeps the open ends)")
+                if why is not None:
+                    used = "fixed"
+                    if p1.kept_cost is not None:
+                        p1.kept_cost.release()  # the open-ended pass is dropped: free its kept costs first
+                    # takes that start and end together: the open-ended path (corner to corner) guides
+                    # the band; an overlap too short to trust: the diagonal's band (the paper)
+                    p1, w1, w2, cons = run_pass1("fixed", together if why == _TOGETHER_WHY else guide)
+                    own_paths = arm_paths(p1, progress=check) if others else []
+                    if why.startswith("!"):
+                        log.note(f"{who}: {why[1:]}")
+            for msg in p1.notes:
+                log.note(f"{who}: {msg}")
+            # the expected path over the near-best ones, not the best path alone: smooth in the input
+            per_frame, posterior = expected_frames(p1, temperature=opts.temperature_s * bmk.fps,
+                                                   radius=int(round(opts.posterior_radius_s * bmk.fps)),
+                                                   progress=lambda f: log.progress(f"{label}: expected", f))
+            if used == "open":
+                covered = _cover_pins(tuple(int(v) for v in p1.covered), markers.pins, n)
+                if covered != tuple(p1.covered):
+                    per_frame = hold_ends(per_frame)
+                    per_frame[:covered[0]] = np.nan
+                    per_frame[covered[1] + 1:] = np.nan
+            # each arm's own path in the same band: where they part, one arm says little (stages.crosscheck)
+            own = {side: path_median(q, n) for side, q in zip(sides, own_paths)}
+            log.tick("pass1")
+        else:  # pass 2 alone runs in pass 1's band (the paper's 30 % unless given)
+            w1, _ = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=False, guided=False)
+            w2 = w1
+            cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
+    except (BandError, ConstraintError) as e:
+        raise _pin_error(e, markers.pins, who) from None
+    except SplicerError as e:
+        raise type(e)(f"{who}: {e}") from None
+    return Located(p1, per_frame, posterior, covered, used, w1, w2, cons, own)
+
+
+def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log | None = None, *,
+           smooth_s: float | None = None) -> Alignment:
+    """Pass 2 (palm metric D2) of one side after :func:`locate`, composed, with a confidence.
+
+    ``located`` may be shared with the other hand (:func:`align_pair`); it is not released here.
+
+    Raises
+    ------
+    SplicerError
+        A band that cannot reach the pins, named by their file and line.
+    """
+    from ..align.passes import compose, hold_ends, pass2, path_median, remap_constraints, warp_markers
+    from ..align.confidence import pass_confidence, posterior_confidence
+
+    log = log or Log()
+    s, bmk, hmk = markers.side, markers.body, markers.hands
+    n = bmk.n_frames
+    fps = markers.spaces.body_fps
+    smooth_s = opts.smooth_s if smooth_s is None else smooth_s
+    p1, covered, cons = located.pass1, located.covered, located.constraints
+    per_frame = None if located.per_frame is None else np.array(located.per_frame)
+    path = None if p1 is None else p1.path
+    p2 = None
+    try:
+        if opts.passes == "both":
+            log.progress(f"{s}: pass 2", 0.0)
+            filled = hold_ends(per_frame)
+            p2 = pass2(bmk, warp_markers(hmk, filled), width=located.width2,
+                       constraints=remap_constraints(cons, filled),
+                       diagonal_weight=opts.pass2_weight, d1_weight=opts.pass2_d1_weight, smooth_s=smooth_s,
+                       dead_zone=opts.dead_zone, sign_ramp=opts.sign_ramp, theta=opts.theta, covered=covered,
+                       progress=lambda f: log.progress(f"{s}: pass 2", f))
+            path = np.stack([p2.path[:, 0], np.interp(p2.path[:, 1], np.arange(n), filled)], axis=1)
+            per_frame = compose(filled, p2.path, n)
+            if covered is not None:
+                per_frame[:covered[0]] = np.nan
+                per_frame[covered[1] + 1:] = np.nan
+            log.tick("pass2")
+        elif opts.passes == "pass2":
+            p2 = pass2(bmk, hmk, width=located.width1, constraints=cons, diagonal_weight=0.0)
+            path, per_frame = p2.path, path_median(p2.path, n)
+            log.tick("pass2")
+    except (BandError, ConstraintError) as e:
+        raise _pin_error(e, markers.pins, f"{s} side") from None
+    except SplicerError as e:
+        raise type(e)(f"{s} side: {e}") from None
+    conf = None
+    if located.posterior is not None:  # the expected path's own spread (measured: README, Accuracy)
+        conf = posterior_confidence(located.posterior, fps)
+    elif p1 is not None:  # the best path alone (temperature 0): the cost landscape around it
+        log.progress(f"{s}: confidence", 0.0)
+        conf = pass_confidence(p1, fps)
+    if p1 is not None:
+        log.tick("confidence")
+    if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:
+        log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "
+                 f"({(covered[1] - covered[0] + 1) / fps:.1f} s of {n / fps:.1f} s): check that both takes show the "
+                 "same performance, or pin a matching pair")
+    return Alignment(per_frame, path, p1, p2, cons, covered, conf, located.ends, located.posterior,
+                     located.own.get(s))
+
+
 def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
                offset_s: float | None = None, guide: np.ndarray | None = None,
                smooth_s: float | None = None, noisy: bool | None = None) -> Alignment:
-    """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed, with a confidence.
+    """Pass 1 (phase metric D1) and pass 2 (palm metric D2) of one side, composed, with a confidence
+    (:func:`locate`, then :func:`refine`).
 
     Parameters
     ----------
@@ -175,109 +403,14 @@ def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None
     SplicerError
         A band that cannot reach the pins, named by their file and line.
     """
-    from ..align.passes import compose, hold_ends, pass1, pass2, path_median, remap_constraints, warp_markers
-    from ..align.band import band_frames
-    from ..align.band_width import pass_widths
-    from ..align.confidence import pass_confidence, posterior_confidence
-    from ..align.posterior import expected_frames
-
     log = log or Log()
-    s, bmk, hmk = markers.side, markers.body, markers.hands
-    n, m = bmk.n_frames, hmk.n_frames
-    fps = markers.spaces.body_fps
-
     if smooth_s is None:  # one side alone: its own noise matching
-        smooth_s = phase_smoothing({s: markers}, opts, log)[s]
-    if noisy is None:
-        noisy = smooth_s > opts.smooth_s
-    pos_fixed, pos_open = position_weights(opts, markers, noisy)
-
-    def run_pass1(mode: str, guide_path=None):
-        open_ends = mode == "open"
-        cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
-        guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
-        w1, w2 = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=open_ends, guided=guided)
-        p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
-                  sign_ramp=opts.sign_ramp, position_weight=pos_open if open_ends else pos_fixed,
-                  theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
-                  uncovered_quantile=opts.uncovered_quantile,
-                  coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
-                  coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
-                  guide=None if open_ends else guide_path,
-                  progress=lambda f: log.progress(f"{s}: pass 1", f))
-        return p, w1, w2, cons
-
-    p1 = p2 = posterior = None
-    covered = None
-    used = "fixed" if ends == "fixed" else "open"
+        smooth_s = phase_smoothing({markers.side: markers}, opts, log)[markers.side]
+    located = locate(markers, opts, log, ends=ends, offset_s=offset_s, guide=guide, smooth_s=smooth_s, noisy=noisy)
     try:
-        if opts.passes in ("pass1", "both"):
-            log.progress(f"{s}: pass 1", 0.0)
-            p1, w1, w2, cons = run_pass1(used, guide)
-            if ends == "auto":
-                why = _choose_ends(p1, n, m, fps, markers.pins)
-                if why is not None:
-                    used = "fixed"
-                    if p1.kept_cost is not None:
-                        p1.kept_cost.release()  # the open-ended pass is dropped: free its kept costs first
-                    # takes that start and end together: the open-ended path (corner to corner) guides
-                    # the band; an overlap too short to trust: the diagonal's band (the paper)
-                    p1, w1, w2, cons = run_pass1("fixed", p1.path if why == _TOGETHER_WHY else guide)
-                    if why.startswith("!"):
-                        log.note(f"{s} side: {why[1:]}")
-            for msg in p1.notes:
-                log.note(f"{s} side: {msg}")
-            # the expected path over the near-best ones, not the best path alone: smooth in the input
-            path = p1.path
-            per_frame, posterior = expected_frames(p1, temperature=opts.temperature_s * bmk.fps,
-                                                   radius=int(round(opts.posterior_radius_s * bmk.fps)),
-                                                   progress=lambda f: log.progress(f"{s}: expected", f))
-            if used == "open":
-                covered = _cover_pins(tuple(int(v) for v in p1.covered), markers.pins, n)
-                if covered != tuple(p1.covered):
-                    per_frame = hold_ends(per_frame)
-                    per_frame[:covered[0]] = np.nan
-                    per_frame[covered[1] + 1:] = np.nan
-            log.tick("pass1")
-        else:  # pass 2 alone runs in pass 1's band (the paper's 30 % unless given)
-            w1, _ = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=False, guided=False)
-            cons = tuple(markers.spaces.dtw_constraints(markers.pins, m))
-        if opts.passes == "both":
-            log.progress(f"{s}: pass 2", 0.0)
-            filled = hold_ends(per_frame)
-            p2 = pass2(bmk, warp_markers(hmk, filled), width=w2, constraints=remap_constraints(cons, filled),
-                       diagonal_weight=opts.pass2_weight, d1_weight=opts.pass2_d1_weight, smooth_s=smooth_s,
-                       dead_zone=opts.dead_zone, sign_ramp=opts.sign_ramp, theta=opts.theta, covered=covered,
-                       progress=lambda f: log.progress(f"{s}: pass 2", f))
-            path = np.stack([p2.path[:, 0], np.interp(p2.path[:, 1], np.arange(n), filled)], axis=1)
-            per_frame = compose(filled, p2.path, n)
-            if covered is not None:
-                per_frame[:covered[0]] = np.nan
-                per_frame[covered[1] + 1:] = np.nan
-            log.tick("pass2")
-        elif opts.passes == "pass2":
-            p2 = pass2(bmk, hmk, width=w1, constraints=cons, diagonal_weight=0.0)
-            path, per_frame = p2.path, path_median(p2.path, n)
-            log.tick("pass2")
-    except (BandError, ConstraintError) as e:
-        raise _pin_error(e, markers.pins, s) from None
-    except SplicerError as e:
-        raise type(e)(f"{s} side: {e}") from None
-    conf = None
-    if posterior is not None:  # the expected path's own spread (measured: README, Accuracy)
-        conf = posterior_confidence(posterior, fps)
-    elif p1 is not None:  # the best path alone (temperature 0): the cost landscape around it
-        log.progress(f"{s}: confidence", 0.0)
-        conf = pass_confidence(p1, fps)
-    if p1 is not None:
-        if p1.kept_cost is not None:
-            p1.kept_cost.release()  # pass 1's kept costs (splicer.align.costcache): no later stage reads them
-        log.tick("confidence")
-    if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:
-        log.note(f"{s} side: the hands take covers only body frames {covered[0]}-{covered[1]} "
-                 f"({(covered[1] - covered[0] + 1) / fps:.1f} s of {n / fps:.1f} s): check that both takes show the "
-                 "same performance, or pin a matching pair")
-    return Alignment(per_frame, path, p1, p2, cons, covered, conf, used, posterior)
+        return refine(markers, located, opts, log, smooth_s=smooth_s)
+    finally:
+        located.release()
 
 
 def agree_ends(aligned: dict, markers: dict, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
@@ -347,9 +480,7 @@ def _choose_ends(p1, n: int, m: int, fps: float, pins) -> str | None:
       end is the safer answer, with a warning.  A hands take much shorter or longer than the
       body keeps the open-ended answer (stretching it end to end would be worse).
     """
-    tol = _TOGETHER_S * fps
-    (i0, j0), (i1, j1) = p1.path[0], p1.path[-1]
-    if i0 <= tol and j0 <= tol and (n - 1 - i1) <= tol and (m - 1 - j1) <= tol:
+    if _corner_to_corner(p1.path, n, m, fps):
         return _TOGETHER_WHY
     a, b = p1.covered
     comparable = 2.0 / 3.0 <= m / n <= 1.5  # end to end needs no more than the protocol's 0.5x-2x local speeds
@@ -358,6 +489,37 @@ def _choose_ends(p1, n: int, m: int, fps: float, pins) -> str | None:
                 f"although both takes last {min(n, m) / fps:.1f} s or more; it is not trusted and the takes are aligned "
                 "end to end (--ends open keeps it, --ends fixed says so)")
     return None
+
+
+def _arm_together(p1, own_paths: list, sides: list, n: int, m: int, fps: float, long_s: float):
+    """After an open-ended pass 1 over both arms that did not run corner to corner: the first
+    arm (name, full-rate path) whose own path does, else ``(None, None)``.
+
+    Each arm's own path in the pass's band is asked first; then (takes up to ``long_s`` seconds,
+    where the coarse matrix is small) each arm aligned as if alone
+    (:func:`splicer.align.passes.arm_alone`: its own locating pass and penalty).  The shared
+    path can lose a corner that one arm alone finds (held-out zeggs *speed*, seed 102: the
+    hands run 3x slower over the last 7.6 s, and the shared locating path skipped them);
+    aligned each on its own, the pair went end to end by :func:`agree_ends`, and so it does here."""
+    from ..align.passes import arm_alone
+
+    for side, q in zip(sides, own_paths):
+        if _corner_to_corner(q, n, m, fps):
+            return side, q
+    if p1.located is None or n / fps > long_s or not p1.located.arm_costs:
+        return None, None
+    for k, side in enumerate(sides):
+        q = arm_alone(p1, k)
+        if _corner_to_corner(q, n, m, fps):
+            return side, q
+    return None, None
+
+
+def _corner_to_corner(path: np.ndarray, n: int, m: int, fps: float) -> bool:
+    """The path starts within :data:`_TOGETHER_S` of both first frames and ends within it of both last frames."""
+    tol = _TOGETHER_S * fps
+    (i0, j0), (i1, j1) = path[0], path[-1]
+    return bool(i0 <= tol and j0 <= tol and (n - 1 - i1) <= tol and (m - 1 - j1) <= tol)
 
 
 def _cover_pins(covered: tuple, pins, n: int) -> tuple:
@@ -369,13 +531,18 @@ def _cover_pins(covered: tuple, pins, n: int) -> tuple:
 
 
 def _disagreement(aligned: dict, fps: float) -> tuple[float, float]:
-    """Mean seconds between the two sides' time maps, and the share of frames over
+    """Mean seconds between the two sides' time maps (or, after one pass 1 for both arms, the
+    larger of that and the shared path's departure from either arm's own path:
+    :func:`splicer.stages.crosscheck.arms_departure`), and the share of frames over
     :data:`LOW_CONFIDENCE_S`, over the body frames both cover (NaN, NaN: none)."""
-    from .crosscheck import hands_disagreement
+    from .crosscheck import arms_departure, hands_disagreement
     from .report import LOW_CONFIDENCE_S
 
-    a, b = (x.per_frame for x in aligned.values())
-    d = hands_disagreement(a, b, fps)  # per_frame is in common frames: at the body rate
+    x, y = aligned.values()
+    d = hands_disagreement(x.per_frame, y.per_frame, fps)  # per_frame is in common frames: at the body rate
+    dev = arms_departure(x, y, fps)
+    if dev is not None:  # one pass 1 for both arms: the sides part only in pass 2; the arms' own paths tell
+        d = np.fmax(d, dev)
     d = d[np.isfinite(d)]
     if not d.size:
         return float("nan"), float("nan")
@@ -384,8 +551,9 @@ def _disagreement(aligned: dict, fps: float) -> tuple[float, float]:
 
 def align_pair(markers: dict, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",
                offset_s: float | None = None) -> dict:
-    """Align every side (:func:`phase_smoothing`, :func:`align_side`, :func:`agree_ends`), with a
-    second opinion on the smoothing when the two hands disagree.
+    """Align every side (:func:`phase_smoothing`; one :func:`locate` for both arms when
+    :func:`arms_together`, then :func:`refine` per side; otherwise :func:`align_side` per side
+    and :func:`agree_ends`), with a second opinion on the smoothing when the two hands disagree.
 
     Both hands come from one hands take, so where their time maps part, one of them is off
     (:mod:`splicer.stages.crosscheck`).  With ``noise_ratio="auto"``, two sides whose time maps
@@ -437,7 +605,27 @@ def _noisy(smooth: dict | None, opts: SpliceOptions) -> bool | None:
     return None if not smooth else any(v > opts.smooth_s for v in smooth.values())
 
 
+def arms_together(markers: dict, opts: SpliceOptions) -> bool:
+    """Pass 1 weighs both arms at once (``opts.pass1_arms == "both"``): two sides with the same
+    frames (they share the body and hands takes) and the same pins; otherwise each side alone."""
+    if opts.pass1_arms != "both" or len(markers) != 2 or opts.passes == "pass2":
+        return False
+    a, b = markers.values()
+    return (a.body.n_frames, a.hands.n_frames, a.body.fps, a.hands.fps) == \
+        (b.body.n_frames, b.hands.n_frames, b.body.fps, b.hands.fps) and a.pins == b.pins
+
+
 def _align_all(markers, smooth, opts, log, ends, offset_s) -> dict:
-    aligned = {s: align_side(mk, opts, log, ends=ends, offset_s=offset_s, smooth_s=smooth[s], noisy=_noisy(smooth, opts))
+    noisy = _noisy(smooth, opts)
+    if arms_together(markers, opts):  # one clock in each take: one pass 1 for both hands, pass 2 per side
+        first, *rest = markers
+        located = locate(markers[first], opts, log, others=tuple(markers[s] for s in rest), ends=ends,
+                         offset_s=offset_s, smooth_s=smooth[first], noisy=noisy,
+                         other_smooth=tuple(smooth[s] for s in rest))
+        try:
+            return {s: refine(mk, located, opts, log, smooth_s=smooth[s]) for s, mk in markers.items()}
+        finally:
+            located.release()
+    aligned = {s: align_side(mk, opts, log, ends=ends, offset_s=offset_s, smooth_s=smooth[s], noisy=noisy)
                for s, mk in markers.items()}
     return agree_ends(aligned, markers, opts, log, ends=ends, offset_s=offset_s, smooth=smooth)

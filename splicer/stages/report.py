@@ -132,6 +132,7 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, ext
         info = {"band_frames": round(float(p.band.width), 3), "cost": float(p.cost)}
         if p.name == "pass1":
             info["position_weight"] = p.position_weight
+            info["arms"] = p.arms  # 2: one pass 1 for both hands (stages.align.arms_together)
         return info
 
     side_reports = {}

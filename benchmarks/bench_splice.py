@@ -185,14 +185,15 @@ def table(results: list[dict]) -> str:
         if r.get("error"):
             lines.append("alignment error against the truth (hands frames): " + "; ".join(
                 f"{s} mean {e[0]:.2f}, p95 {e[1]:.2f}" for s, e in sorted(r["error"].items())) + "\n")
-        lines.append("| side | markers (s) | pass 1 (s) | expected path (s) | pass 2 (s) | confidence (s) | transfer (s) "
-                     "| side total (s) |")
-        lines.append("|---|---:|---:|---:|---:|---:|---:|---:|")
-        for side in ("left", "right"):
+        lines.append("| side | markers (s) | pass 1 (s) | expected path (s) | arms' own paths (s) | pass 2 (s) "
+                     "| confidence (s) | transfer (s) | total (s) |")
+        lines.append("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for side in ("left", "right", "both hands"):  # "both hands": one pass 1 for both arms (0.5.0)
             st = {k.split(": ", 1)[1]: v for k, v in r["stages"].items() if k.startswith(side + ": ")}
             if not st:
                 continue
-            cells = [st.get(k, 0.0) for k in ("markers", "pass 1", "expected", "pass 2", "confidence", "transfer")]
+            cells = [st.get(k, 0.0) for k in ("markers", "pass 1", "expected", "check", "pass 2", "confidence",
+                                               "transfer")]
             lines.append(f"| {side} | " + " | ".join(f"{c:.2f}" for c in cells) + f" | {sum(cells):.2f} |")
         checks = sum(v for k, v in r["stages"].items() if k.startswith("checks"))
         lines.append(f"\nHands checks (dropouts, handedness) before the sides: {checks:.2f} s.")

@@ -128,6 +128,20 @@ def test_cli_falls_back_to_synthetic(tmp_path, capsys, monkeypatch):
     assert "| oracle |" in out.with_suffix(".md").read_text()
 
 
+def test_cli_splice_options_reach_the_plain_protocol(tmp_path, capsys, monkeypatch):
+    """--splice-option applies to the plain protocol too (it used to be read by the scenarios only,
+    and silently ignored here): a bad value is refused by the splice, a good one is named in the header."""
+    import splicer.evaluation.evaluate as ev
+
+    monkeypatch.setattr(ev, "SHARED_ZEGGS", tmp_path / "absent")
+    assert main(["--seeds", "1", "--synthetic-seconds", "6", "--splice-option", "ends=sideways"]) == 1
+    assert "ends" in capsys.readouterr().err
+    assert main(["--seeds", "1", "--synthetic-seconds", "6", "--splice-option", "pass1_arms=each"]) == 0
+    assert "Splice options for every splice method: {'pass1_arms': 'each'}" in capsys.readouterr().out
+    assert main(["--seeds", "1", "--splice-option", "noequals"]) == 1
+    assert "needs KEY=VALUE" in capsys.readouterr().err
+
+
 def test_cli_bad_path(capsys, tmp_path):
     assert main([str(tmp_path / "nope.bvh"), "--seeds", "1"]) == 1
     assert "no such file" in capsys.readouterr().err

@@ -302,12 +302,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--synthetic", action="store_true",
                    help="scenarios: also run the synthetic take (make_gesture_take, --synthetic-seconds, seed 0)")
     p.add_argument("--splice-option", action="append", default=None, metavar="KEY=VALUE",
-                   help="scenarios: a SpliceOptions field for every splice method (repeatable; VALUE read as YAML)")
+                   help="a SpliceOptions field for every splice method (repeatable; VALUE read as YAML); a method's "
+                        "own setting wins (e.g. 'full, fixed ends' keeps ends=fixed)")
     p.add_argument("--runs-csv", action="append", default=None, metavar="CSV",
                    help="scenarios: tabulate earlier runs (OUT_runs.csv files, repeatable) instead of running")
     p.add_argument("--dump", default=None, metavar="DIR",
                    help="scenarios: also write DIR/<take>/<scenario>/seed<N>/{body.bvh,hands.bvh,truth.csv}")
     return p
+
+
+def splice_option_args(items, err) -> dict | None:
+    """``--splice-option KEY=VALUE`` items as a dict (VALUE read as YAML); None after reporting a malformed one."""
+    import yaml
+
+    opts = {}
+    for kv in items or []:
+        key, sep_, val = kv.partition("=")
+        if not sep_ or not key.strip():
+            err(f"splicer-evaluate: --splice-option needs KEY=VALUE, got {kv!r}")
+            return None
+        opts[key.strip()] = yaml.safe_load(val)
+    return opts
 
 
 def main(argv=None) -> int:
@@ -321,11 +336,14 @@ def main(argv=None) -> int:
     if args.scenario or args.scenarios or args.runs_csv:
         from .scenario_eval import scenario_cli
         return scenario_cli(args, params, err)
+    opts = splice_option_args(args.splice_option, err)
+    if opts is None:
+        return 1
     try:
         takes = default_takes(args.bvh, synthetic_seconds=args.synthetic_seconds, note=lambda m: (print(m), err(m)))
         runs = evaluate(takes, seeds=args.seeds, seed0=args.seed0, params=params,
                         generic_window=args.generic_window, progress=err, hands_form=args.hands_form,
-                        mirror=args.mirror)
+                        mirror=args.mirror, splice_options=opts or None)
     except SplicerError as e:
         err(f"splicer-evaluate: {e}")
         return 1
@@ -338,6 +356,8 @@ def main(argv=None) -> int:
         header += (f"Hands capture: {args.hands_form}-rooted hand-only file per side" if args.hands_form != "full"
                    else "Hands capture: full skeleton") + (", mirrored through X = 0 (names kept)" if args.mirror
                                                            else "") + ".\n"
+    if opts:
+        header += f"Splice options for every splice method: {opts}.\n"
     verdict = checks(runs)
     print(header)
     print(compact_markdown(table))

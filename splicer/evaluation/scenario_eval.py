@@ -244,15 +244,11 @@ def scenario_cli(args, params, err) -> int:
     from .evaluate import default_takes
     from .synth import make_gesture_take
 
-    import yaml
+    from .evaluate import splice_option_args
 
-    opts = {}
-    for kv in args.splice_option or []:
-        key, sep_, val = kv.partition("=")
-        if not sep_ or not key:
-            err(f"splicer-evaluate: --splice-option needs KEY=VALUE, got {kv!r}")
-            return 1
-        opts[key.strip()] = yaml.safe_load(val)
+    opts = splice_option_args(args.splice_option, err)
+    if opts is None:
+        return 1
     names = list(SCENARIOS) if args.scenarios == "all" else []
     names += [n for n in (args.scenario or []) if n not in names]
     try:

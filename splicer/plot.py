@@ -176,10 +176,9 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         if s.pass1 is not None:
             ax, cax = pass_axes(row, k)
             w = s.pass1.position_weight
-            both = " of both arms" if s.pass1.arms > 1 else ""
-            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, phase metric D1{' + positions' if w else ''}{both} "
-                                         f"(band {s.pass1.band.width:.0f} frames)", cons, max_pixels=px,
-                                 images=images)
+            what = ("both arms, D1" if s.pass1.arms > 1 else "phase metric D1") + (" + positions" if w else "")
+            im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, {what} (band {s.pass1.band.width:.0f} frames)", cons,
+                            max_pixels=px, images=images)
             ax.set_ylabel("hands frame (body rate)")
             colorbar(im, cax, f"D1 + {w:g} x position term" if w else "D1 (squared sign differences)")
             k += 1

@@ -189,7 +189,7 @@ def arm_alone(p: PassResult, k: int) -> np.ndarray:
     if p.ends != "open" or loc is None or not loc.arm_costs or not 0 <= k < len(p.arm_costs):
         raise ValueError("arm_alone needs an open-ended pass 1 over several arms with its locating pass")
     u = p.arm_uncovered[k] if k < len(p.arm_uncovered) else p.uncovered_cost
-    coarse = arm_paths(loc, own_penalty=True)[k]
+    coarse = _arm_path(loc, k, own_penalty=True)
     factor = p.fps / loc.fps
     band = p.band
     if factor > 1.0 + 1e-9:
@@ -217,16 +217,20 @@ def arm_paths(p: PassResult, progress=None, *, own_penalty: bool = False) -> lis
         Per arm (in ``p``'s order), its path of (body frame, hands frame) cells, like
         ``p.path``.  Empty for one arm.
     """
-    out = []
-    for k, cost in enumerate(p.arm_costs):
-        ends = {}
-        if p.ends == "open":  # the pass's uncovered penalty, or each arm's own, as if it were aligned alone
-            u = p.arm_uncovered[k] if own_penalty and k < len(p.arm_uncovered) else p.uncovered_cost
-            ends = dict(open_begin=True, open_end=True, uncovered_cost=u)
-        frac = (lambda f, k=k: progress((k + f) / len(p.arm_costs))) if progress is not None else None
-        out.append(_run(cost, p.band, frac, step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight,
-                        **ends).path)
-    return out
+    n = len(p.arm_costs)
+    return [_arm_path(p, k, own_penalty=own_penalty,
+                      progress=(lambda f, k=k: progress((k + f) / n)) if progress is not None else None)
+            for k in range(n)]
+
+
+def _arm_path(p: PassResult, k: int, *, own_penalty: bool, progress=None) -> np.ndarray:
+    """Arm ``k``'s own best path in ``p``'s band (:func:`arm_paths`, one arm)."""
+    ends = {}
+    if p.ends == "open":  # the pass's uncovered penalty, or the arm's own, as if it were aligned alone
+        u = p.arm_uncovered[k] if own_penalty and k < len(p.arm_uncovered) else p.uncovered_cost
+        ends = dict(open_begin=True, open_end=True, uncovered_cost=u)
+    return _run(p.arm_costs[k], p.band, progress, step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight,
+                **ends).path
 
 
 def _arms_sample(arms: list, features: list, theta: str) -> np.ndarray:

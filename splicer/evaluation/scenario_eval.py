@@ -241,10 +241,8 @@ def overview_markdown(runs: pd.DataFrame, method: str = "splice (smooth time map
 
 def scenario_cli(args, params, err) -> int:
     """``splicer-evaluate --scenario NAME`` / ``--scenarios all`` (called by :func:`splicer.evaluate.main`)."""
-    from .evaluate import default_takes
+    from .evaluate import default_takes, splice_option_args
     from .synth import make_gesture_take
-
-    from .evaluate import splice_option_args
 
     opts = splice_option_args(args.splice_option, err)
     if opts is None:

@@ -260,11 +260,12 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
             log.progress(f"{label}: pass 1", 0.0)
             p1, w1, w2, cons = run_pass1(used, guide)
             check = lambda f: log.progress(f"{label}: check", f)  # noqa: E731
-            own_paths = arm_paths(p1, progress=check) if others else []
+            own_paths = None  # each arm's own path in pass 1's band, once the pass is kept (or to choose ends)
             if ends == "auto":
                 why = _choose_ends(p1, n, m, fps, markers.pins)
                 together = p1.path
                 if why is None and others:  # an arm's own path corner to corner: the takes start and end together
+                    own_paths = arm_paths(p1, progress=check)
                     arm, together = _arm_together(p1, own_paths, sides, n, m, fps, opts.coarse_above_s)
                     if together is not None:
                         why = _TOGETHER_WHY
@@ -278,7 +279,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                     # takes that start and end together: the open-ended path (corner to corner) guides
                     # the band; an overlap too short to trust: the diagonal's band (the paper)
                     p1, w1, w2, cons = run_pass1("fixed", together if why == _TOGETHER_WHY else guide)
-                    own_paths = arm_paths(p1, progress=check) if others else []
+                    own_paths = None  # the dropped pass's paths do not describe this one
                     if why.startswith("!"):
                         log.note(f"{who}: {why[1:]}")
             for msg in p1.notes:
@@ -294,6 +295,8 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                     per_frame[:covered[0]] = np.nan
                     per_frame[covered[1] + 1:] = np.nan
             # each arm's own path in the same band: where they part, one arm says little (stages.crosscheck)
+            if own_paths is None:
+                own_paths = arm_paths(p1, progress=check) if others else []
             own = {side: path_median(q, n) for side, q in zip(sides, own_paths)}
             log.tick("pass1")
         else:  # pass 2 alone runs in pass 1's band (the paper's 30 % unless given)

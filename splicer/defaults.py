@@ -86,6 +86,11 @@ SIGN_RAMP = 0.03
 PASS1_TEMPERATURE_S = 0.8
 #: Hands time each side of the best path that the weighed paths may use, seconds.
 POSTERIOR_RADIUS_S = 2.0
+#: Pass 1 costing this share or more of what it costs against the hands take played backwards
+#: (:mod:`splicer.align.evidence`): nothing says the takes show the same performance, and every
+#: covered frame is low confidence.  Measured on the scenario protocol's tuning seeds 0-1 (every
+#: scenario, both takes): genuine pairs 0.29-0.89, a body with another take's hands 0.97-1.03.
+BACKWARDS_RATIO = 0.93
 #: Pass 2's departure penalty, radians per band width of departure from the pass-1 warp.
 PASS2_WEIGHT = 2.0
 #: Weight of D1 (normalised by 24) added to D2 in pass 2; 0 is the paper's pass 2.

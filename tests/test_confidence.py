@@ -329,3 +329,20 @@ def test_local_costs_beyond_the_budget_are_computed_twice(monkeypatch, keep, cal
     assert len(asked) == calls
     assert asked[:4] == [(0, 3), (3, 6), (6, 9), (9, 10)]
     np.testing.assert_array_equal(conf.est_error_s, row_confidence(C, band, path, 30.0).est_error_s)
+
+
+def test_with_floor_raises_covered_estimates_and_keeps_uncovered_frames():
+    est = np.array([np.nan, 0.02, 0.5, np.nan])
+    c = Confidence(spread_frames=np.array([np.nan, 1.0, 2.0, np.nan]), est_error_s=est,
+                   confidence=np.zeros(4), threshold=1.0, error_scale_s=0.1)
+    f = c.with_floor(0.3)
+    np.testing.assert_array_equal(f.est_error_s, [np.nan, 0.3, 0.5, np.nan])
+    # confidence is recomputed from the new estimates: lower where the error grew, 0 where uncovered
+    assert f.confidence[0] == 0.0 and f.confidence[3] == 0.0
+    assert 0.0 < f.confidence[2] <= f.confidence[1] < 0.5
+    np.testing.assert_array_equal(f.low(), [False, True, True, False])
+    assert c.with_floor(0.0).est_error_s[1] == 0.02  # a zero floor changes nothing
+    with pytest.raises(ValueError):
+        c.with_floor(-1.0)
+    with pytest.raises(ValueError):
+        c.with_floor(float("inf"))

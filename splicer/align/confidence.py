@@ -47,7 +47,7 @@ computed twice where they exceed the budget.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -127,6 +127,15 @@ class Confidence:
         return Confidence(spread_frames=self.spread_frames, est_error_s=est,
                           confidence=_confidence_of(est, self.error_scale_s), threshold=self.threshold,
                           error_scale_s=self.error_scale_s, row_excess=self.row_excess, disagreement_s=d)
+
+    def with_floor(self, error_s: float) -> "Confidence":
+        """This confidence with every covered frame's estimated error at least ``error_s`` seconds
+        (uncovered frames stay NaN); ``confidence`` recomputed with the same ``error_scale_s``."""
+        f = float(error_s)
+        if not (f >= 0.0 and np.isfinite(f)):
+            raise ValueError(f"error_s must be >= 0 and finite, got {error_s!r}")
+        est = np.where(np.isfinite(self.est_error_s), np.fmax(self.est_error_s, f), self.est_error_s)
+        return replace(self, est_error_s=est, confidence=_confidence_of(est, self.error_scale_s))
 
     def ambiguous(self) -> np.ndarray:
         """Boolean mask (n,): uncovered frames an alignment within ``threshold`` of the optimum

@@ -49,6 +49,7 @@ class Alignment:
     ends: str = "fixed"  # the end conditions used: "open" or "fixed"
     posterior: object = None  # pass 1's expected path and its spread (splicer.align.posterior), when used
     own: np.ndarray | None = None  # pass 1 over both arms: this arm's own path in its band, per body frame
+    evidence: object = None  # pass 1 against the hands take played backwards (splicer.align.evidence)
 
     def __repr__(self) -> str:
         return f"Alignment(body_frames={len(self.per_frame)}, passes={[p.name for p in (self.pass1, self.pass2) if p]})"
@@ -171,6 +172,9 @@ class Located:
     own : dict of str -> np.ndarray
         Pass 1 over several arms: each side's own best path in the same band, per body frame
         (:func:`splicer.align.passes.arm_paths`), for the cross-check; empty for one side.
+    evidence : Evidence or None
+        Pass 1 against the hands take played backwards (:mod:`splicer.align.evidence`); None
+        without pass 1, or when the check could not run.
     """
 
     pass1: object
@@ -182,11 +186,38 @@ class Located:
     width2: float
     constraints: tuple
     own: dict = field(default_factory=dict)
+    evidence: object = None
 
     def release(self) -> None:
         """Free pass 1's kept costs (:mod:`splicer.align.costcache`): no later stage reads them."""
         if self.pass1 is not None and self.pass1.kept_cost is not None:
             self.pass1.kept_cost.release()
+
+
+def _no_evidence_error_s(hands_frames: int, fps: float) -> float:
+    """The error to expect when nothing says where in the hands take a body frame belongs: the
+    standard deviation of a place drawn uniformly over the whole hands take (its length / sqrt(12)),
+    seconds.  Not the span the path covers: on unrelated takes that span means nothing either."""
+    return max(float(hands_frames) - 1.0, 1.0) / fps / np.sqrt(12.0)
+
+
+def _evidence(bmk, hmk, extra: list, ends: str, smooth_s: float, position_weight: float, opts: SpliceOptions,
+              log: Log, who: str, label: str):
+    """Pass 1 against the hands take played backwards (:func:`splicer.align.evidence.match_evidence`), with
+    pass 1's arms and options."""
+    from ..align.evidence import match_evidence
+    from ..align.passes import Arm
+
+    arms = tuple(Arm(o.body, o.hands, osm, w_open if ends == "open" else w_fixed) for o, osm, w_fixed, w_open in extra)
+    try:
+        return match_evidence(bmk, hmk, ends=ends, others=arms, smooth_s=smooth_s, dead_zone=opts.dead_zone,
+                              sign_ramp=opts.sign_ramp, theta=opts.theta, position_weight=position_weight,
+                              uncovered_quantile=opts.uncovered_quantile,
+                              progress=lambda f: log.progress(f"{label}: backwards check", f))
+    except (SplicerError, ValueError) as e:  # takes too short at the check's rate: no verdict, never a failed splice
+        log.note(f"{who}: the check against the hands take played backwards could not run ({e}); nothing says "
+                 "whether the takes show the same performance")
+        return None
 
 
 def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, others: tuple = (),
@@ -251,7 +282,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                   progress=lambda f: log.progress(f"{label}: pass 1", f))
         return p, w1, w2, cons
 
-    p1 = posterior = per_frame = None
+    p1 = posterior = per_frame = evidence = None
     covered = None
     own = {}
     used = "fixed" if ends == "fixed" else "open"
@@ -284,6 +315,16 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                         log.note(f"{who}: {why[1:]}")
             for msg in p1.notes:
                 log.note(f"{who}: {msg}")
+            log.tick("pass1")
+            log.progress(f"{label}: backwards check", 0.0)
+            evidence = _evidence(bmk, hmk, extra, used, smooth_s, pos_open if used == "open" else pos_fixed, opts,
+                                 log, who, label)
+            log.tick("backwards check")
+            if evidence is not None and evidence.ratio >= D.BACKWARDS_RATIO:
+                log.note(f"{who}: the takes may not show the same performance: the alignment costs "
+                         f"{100 * evidence.ratio:.0f}% of what it costs with the hands take played backwards (from "
+                         f"{100 * D.BACKWARDS_RATIO:.0f}% on it is no better than unrelated material), so every covered "
+                         "frame is low confidence; check that the two files belong together")
             # the expected path over the near-best ones, not the best path alone: smooth in the input
             per_frame, posterior = expected_frames(p1, temperature=opts.temperature_s * bmk.fps,
                                                    radius=int(round(opts.posterior_radius_s * bmk.fps)),
@@ -307,7 +348,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
         raise _pin_error(e, markers.pins, who) from None
     except SplicerError as e:
         raise type(e)(f"{who}: {e}") from None
-    return Located(p1, per_frame, posterior, covered, used, w1, w2, cons, own)
+    return Located(p1, per_frame, posterior, covered, used, w1, w2, cons, own, evidence)
 
 
 def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log | None = None, *,
@@ -362,6 +403,8 @@ def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log
     elif p1 is not None:  # the best path alone (temperature 0): the cost landscape around it
         log.progress(f"{s}: confidence", 0.0)
         conf = pass_confidence(p1, fps)
+    if conf is not None and located.evidence is not None and located.evidence.ratio >= D.BACKWARDS_RATIO:
+        conf = conf.with_floor(_no_evidence_error_s(markers.hands.n_frames, markers.hands.fps))
     if p1 is not None:
         log.tick("confidence")
     if covered is not None and covered[1] - covered[0] + 1 < 0.1 * n:
@@ -369,7 +412,7 @@ def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log
                  f"({(covered[1] - covered[0] + 1) / fps:.1f} s of {n / fps:.1f} s): check that both takes show the "
                  "same performance, or pin a matching pair")
     return Alignment(per_frame, path, p1, p2, cons, covered, conf, located.ends, located.posterior,
-                     located.own.get(s))
+                     located.own.get(s), located.evidence)
 
 
 def align_side(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, ends: str = "auto",

@@ -139,7 +139,11 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, ext
     for s, r in sides.items():
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in r.pins)
         real = {"markers": r.markers.real} if r.markers.real else {}  # optical markers used (file, roles, gaps)
-        side_reports[s] = SideReport(s, r.hands_frame, pass_info(r.pass1), pass_info(r.pass2), pins, r.joints,
+        p1 = pass_info(r.pass1)
+        ev = r.alignment.evidence
+        if p1 is not None and ev is not None:  # against the hands take played backwards (align.evidence)
+            p1["backwards_ratio"] = round(float(ev.ratio), 4) if np.isfinite(ev.ratio) else None
+        side_reports[s] = SideReport(s, r.hands_frame, p1, pass_info(r.pass2), pins, r.joints,
                                      {**r.extra, **real, **_coverage_report(r, inputs.body.n_frames, log)})
     bm, hm = inputs.body, inputs.hands
     timings = dict(log.timings, total=log.total())

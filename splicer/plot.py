@@ -82,7 +82,7 @@ def _draw_pass(ax, pr, title, constraints=(), *, max_pixels: int = _MAX_PIXELS, 
     ax.plot(i, pr.band.hi, color="white", lw=0.6, alpha=0.8, label="band")
     ax.plot(pr.path[:, 0], pr.path[:, 1], color="red", lw=1.2, label="path")
     _pins(ax, [c.x for c in constraints], [c.y for c in constraints], [c.tolerance for c in constraints])
-    ax.set_title(title, fontsize=9, y=1.0)  # a fixed place: no measuring of tick labels to avoid
+    ax.set_title(title, fontsize=9, y=1.0, loc="left")  # from the axes' left edge over the colour bar; a fixed place: no measuring of tick labels to avoid
     ax.set_xlabel("body frame")
     ax.set_xlim(0, n - 1)
     ax.set_ylim(0, m - 1)
@@ -151,15 +151,15 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     fig_w, fig_h = _CELL_W * ncols, _CELL_H * nrows
     fig = Figure(figsize=(fig_w, fig_h))
     FigureCanvasAgg(fig)
-    pass_w = _CELL_W - _LEFT - _CBAR_GAP - _CBAR_W - _CBAR_LABELS
-    map_left = _LEFT + 0.1  # four-digit hands frames
+    pass_left = map_left = _LEFT + 0.1  # four-digit hands frames and the axis label beside them
+    pass_w = _CELL_W - pass_left - _CBAR_GAP - _CBAR_W - _CBAR_LABELS
     map_w = _CELL_W - map_left - 0.2
     # a band image of one sample per screen pixel (nearest-neighbour drawing shows no more), at most _MAX_PIXELS
     px = min(_MAX_PIXELS, math.ceil(dpi * max(pass_w, _CELL_H - _BOTTOM - _TOP)))
 
     def pass_axes(row, col):
-        ax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, _LEFT, pass_w))
-        cax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, _LEFT + pass_w + _CBAR_GAP, _CBAR_W))
+        ax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, pass_left, pass_w))
+        cax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, pass_left + pass_w + _CBAR_GAP, _CBAR_W))
         return ax, cax
 
     def colorbar(im, cax, label):

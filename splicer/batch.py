@@ -17,8 +17,9 @@ starting it again redoes only the unfinished pairs.  A pair that fails (unreadab
 no hand found, ...) is reported in the summary and the others go on.
 
 The summary ``<out>/summary.{md,csv}`` (and ``summary.html`` with the alignment plots when
-asked) has one row per pair: status, frames, seconds, confidence (when the report has one),
-warnings.
+asked) has one row per pair: status, frames, seconds, confidence (the lowest side's mean over
+covered frames, the shares of frames low confidence and uncovered, the check against the hands
+played backwards), warnings.
 
 The summary rows and files are :mod:`splicer.batch_summary`, the folders mode
 :mod:`splicer.batch_folders`; this module keeps resuming, one pair, the Dask driver and the CLI.

@@ -77,6 +77,9 @@ def test_manifest_run_then_rerun_skips_finished(client, takes, tmp_path):
     assert "missing_body.bvh" in rows[2]["error"] and "not found" in rows[2]["error"]
     assert rows[0]["body_frames"] == 601 and rows[0]["hands_frames"] == 1985 and rows[0]["sides"] == "left,right"
     assert rows[1]["sides"] == "left"
+    # the sample's figures (its own splice: 42 % of the frames low confidence, 0.33 against its hands played backwards)
+    assert 0.0 < rows[0]["confidence"] < 1.0 and rows[0]["low_confidence_pct"] == pytest.approx(42.3, abs=0.1)
+    assert rows[0]["uncovered_pct"] == 0.0 and rows[0]["backwards_ratio"] == pytest.approx(0.333, abs=0.001)
     rep = json.loads((tmp_path / "batch" / "reports" / "sample.json").read_text())
     assert rep["batch"]["hash"] == job_hash(jobs[0]) and rep["batch"]["status"] == "done"
     assert len(rep["sides"]["left"]["hands_frame"]) == 601
@@ -91,6 +94,8 @@ def test_manifest_run_then_rerun_skips_finished(client, takes, tmp_path):
     assert [r["status"] for r in rows2] == ["done earlier", "done earlier", "failed"]
     assert {p: os.stat(p).st_mtime_ns for p in (tmp_path / "out").glob("*.bvh")} == stamp  # nothing rewritten
     assert rows2[0]["body_frames"] == 601  # the summary row comes from the stored report
+    assert {k: rows2[0][k] for k in ("confidence", "low_confidence_pct", "backwards_ratio")} == \
+        {k: rows[0][k] for k in ("confidence", "low_confidence_pct", "backwards_ratio")}
 
 
 def test_resume_after_kill_runs_only_unfinished(client, takes, tmp_path):
@@ -244,3 +249,22 @@ def test_decide_pairs_max_cost_without_runner_up():
     assert d[0].body == "b" and d[0].margin == math.inf  # nothing to compare with
     d = decide_pairs(np.array([[26.5]]), ["b"], ["h"], max_cost=20.0)
     assert d[0].body is None and d[0].reason == "too expensive: best b costs 26.5 > 20"
+
+
+def test_summary_figures_from_a_report_worked_example():
+    from splicer.batch_summary import summary_row
+    from splicer.manifest import PairJob
+
+    rep = {"body": {"frames": 4}, "hands": {"frames": 9}, "warnings": ["w"],
+           "sides": {"left": {"hands_frame": [None, 1.0, 2.0, 3.0], "confidence": [0.0, 0.9, 0.5, 0.1],
+                              "low_confidence": [[3, 3]], "uncovered": [[0, 0]],
+                              "pass1": {"cost": 2.0, "backwards_ratio": 0.4}},
+                     "right": {"hands_frame": [0.0, 1.0, 2.0, 3.0], "confidence": [0.8, 0.8, 0.8, 0.8],
+                               "low_confidence": [], "uncovered": [],
+                               "pass1": {"cost": 3.0, "backwards_ratio": 0.97}}}}
+    r = summary_row(PairJob("p", "b.bvh", "h.bvh", "o.bvh"), "done", rep=rep, seconds=1.234)
+    # left: mean over its 3 covered frames (0.9 + 0.5 + 0.1) / 3 = 0.5, lower than right's 0.8
+    assert r["confidence"] == 0.5 and r["low_confidence_pct"] == 25.0 and r["uncovered_pct"] == 25.0
+    assert r["backwards_ratio"] == 0.97 and r["pass1_cost"] == 5.0 and r["seconds"] == 1.23
+    empty = summary_row(PairJob("p", "b.bvh", "h.bvh", "o.bvh"), "failed", error="x")
+    assert (empty["confidence"], empty["low_confidence_pct"], empty["backwards_ratio"]) == (None, None, None)

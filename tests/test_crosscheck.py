@@ -103,6 +103,25 @@ def test_arms_departure_worked():
     assert arms_departure(a, SimpleNamespace(own=None, posterior=post), 30.0) is None  # each side its own pass 1
 
 
+def test_sides_disagreement_takes_the_larger_of_maps_and_arms():
+    from types import SimpleNamespace
+
+    from splicer.stages.crosscheck import sides_disagreement
+
+    post = SimpleNamespace(mean=np.array([0.0, 10.0, 20.0]))
+    a = SimpleNamespace(own=np.array([0.0, 13.0, 20.0]), posterior=post)
+    b = SimpleNamespace(own=np.array([0.0, 10.0, 20.0]), posterior=post)
+    maps_a, maps_b = np.array([0.0, 10.0, 26.0]), np.array([0.0, 10.0, 20.0])
+    # maps 0 / 0 / 6 frames apart at 60 fps (0, 0, 0.1 s); arms 0 / 3 / 0 frames at 30 fps (0, 0.1, 0 s)
+    d, shared = sides_disagreement(maps_a, maps_b, 60.0, a, b, 30.0)
+    np.testing.assert_allclose(d, [0.0, 0.1, 0.1])
+    assert shared
+    alone = SimpleNamespace(own=None, posterior=post)
+    d, shared = sides_disagreement(maps_a, maps_b, 60.0, a, alone, 30.0)
+    np.testing.assert_allclose(d, [0.0, 0.0, 0.1])
+    assert not shared
+
+
 def test_one_side_is_left_alone(sample):
     one = {"left": sample.sides["left"]}
     assert cross_check(one, Log())["left"] is sample.sides["left"]

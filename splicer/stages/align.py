@@ -201,17 +201,29 @@ def _no_evidence_error_s(hands_frames: int, fps: float) -> float:
     return max(float(hands_frames) - 1.0, 1.0) / fps / np.sqrt(12.0)
 
 
+def _other_arms(extra: list, open_ends: bool) -> tuple:
+    """Pass 1's other arms (``(SideMarkers, smooth_s, fixed-ends weight, open-ends weight)`` each) as
+    :class:`splicer.align.passes.Arm`, with the position weight of the end condition."""
+    from ..align.passes import Arm
+
+    return tuple(Arm(o.body, o.hands, osm, w_open if open_ends else w_fixed) for o, osm, w_fixed, w_open in extra)
+
+
+def _unmatched(evidence) -> bool:
+    """The check against the hands played backwards ran and found nothing better than unrelated material."""
+    return evidence is not None and evidence.ratio >= D.BACKWARDS_RATIO
+
+
 def _evidence(bmk, hmk, extra: list, ends: str, smooth_s: float, position_weight: float, opts: SpliceOptions,
               log: Log, who: str, label: str):
     """Pass 1 against the hands take played backwards (:func:`splicer.align.evidence.match_evidence`), with
     pass 1's arms and options."""
     from ..align.evidence import match_evidence
-    from ..align.passes import Arm
 
-    arms = tuple(Arm(o.body, o.hands, osm, w_open if ends == "open" else w_fixed) for o, osm, w_fixed, w_open in extra)
     try:
-        return match_evidence(bmk, hmk, ends=ends, others=arms, smooth_s=smooth_s, dead_zone=opts.dead_zone,
-                              sign_ramp=opts.sign_ramp, theta=opts.theta, position_weight=position_weight,
+        return match_evidence(bmk, hmk, ends=ends, others=_other_arms(extra, ends == "open"), smooth_s=smooth_s,
+                              dead_zone=opts.dead_zone, sign_ramp=opts.sign_ramp, theta=opts.theta,
+                              position_weight=position_weight,
                               uncovered_quantile=opts.uncovered_quantile,
                               progress=lambda f: log.progress(f"{label}: backwards check", f))
     except (SplicerError, ValueError) as e:  # takes too short at the check's rate: no verdict, never a failed splice
@@ -242,7 +254,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
     SplicerError
         A band that cannot reach the pins, named by their file and line.
     """
-    from ..align.passes import Arm, arm_paths, hold_ends, pass1, path_median
+    from ..align.passes import arm_paths, hold_ends, pass1, path_median
     from ..align.band import band_frames
     from ..align.band_width import pass_widths
     from ..align.posterior import expected_frames
@@ -271,7 +283,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
         guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
         w1, w2 = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=open_ends, guided=guided)
-        arms = tuple(Arm(o.body, o.hands, osm, w_open if open_ends else w_fixed) for o, osm, w_fixed, w_open in extra)
+        arms = _other_arms(extra, open_ends)
         p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
                   sign_ramp=opts.sign_ramp, position_weight=pos_open if open_ends else pos_fixed,
                   theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
@@ -320,7 +332,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
             evidence = _evidence(bmk, hmk, extra, used, smooth_s, pos_open if used == "open" else pos_fixed, opts,
                                  log, who, label)
             log.tick("backwards check")
-            if evidence is not None and evidence.ratio >= D.BACKWARDS_RATIO:
+            if _unmatched(evidence):
                 log.note(f"{who}: the takes may not show the same performance: the alignment costs "
                          f"{100 * evidence.ratio:.0f}% of what it costs with the hands take played backwards (from "
                          f"{100 * D.BACKWARDS_RATIO:.0f}% on it is no better than unrelated material), so every covered "
@@ -403,7 +415,7 @@ def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log
     elif p1 is not None:  # the best path alone (temperature 0): the cost landscape around it
         log.progress(f"{s}: confidence", 0.0)
         conf = pass_confidence(p1, fps)
-    if conf is not None and located.evidence is not None and located.evidence.ratio >= D.BACKWARDS_RATIO:
+    if conf is not None and _unmatched(located.evidence):
         conf = conf.with_floor(_no_evidence_error_s(markers.hands.n_frames, markers.hands.fps))
     if p1 is not None:
         log.tick("confidence")
@@ -581,14 +593,11 @@ def _disagreement(aligned: dict, fps: float) -> tuple[float, float]:
     larger of that and the shared path's departure from either arm's own path:
     :func:`splicer.stages.crosscheck.arms_departure`), and the share of frames over
     :data:`LOW_CONFIDENCE_S`, over the body frames both cover (NaN, NaN: none)."""
-    from .crosscheck import arms_departure, hands_disagreement
+    from .crosscheck import sides_disagreement
     from .report import LOW_CONFIDENCE_S
 
     x, y = aligned.values()
-    d = hands_disagreement(x.per_frame, y.per_frame, fps)  # per_frame is in common frames: at the body rate
-    dev = arms_departure(x, y, fps)
-    if dev is not None:  # one pass 1 for both arms: the sides part only in pass 2; the arms' own paths tell
-        d = np.fmax(d, dev)
+    d, _ = sides_disagreement(x.per_frame, y.per_frame, fps, x, y, fps)  # per_frame: common frames, the body rate
     d = d[np.isfinite(d)]
     if not d.size:
         return float("nan"), float("nan")

@@ -19,7 +19,7 @@ import numpy as np
 from .log import Log
 from .report import LOW_CONFIDENCE_S, _worst_ranges
 
-__all__ = ["hands_disagreement", "arms_departure", "cross_check"]
+__all__ = ["hands_disagreement", "arms_departure", "sides_disagreement", "cross_check"]
 
 
 def hands_disagreement(hands_frame_a, hands_frame_b, hands_fps: float) -> np.ndarray:
@@ -83,6 +83,23 @@ def arms_departure(a, b, body_fps: float) -> np.ndarray | None:
         return np.fmax(np.abs(a.own - mean), np.abs(b.own - mean)) / float(body_fps)
 
 
+def sides_disagreement(map_a, map_b, map_fps: float, a, b, body_fps: float) -> tuple[np.ndarray, bool]:
+    """Per body frame, seconds by which the two sides disagree: their time maps ``map_a``, ``map_b``
+    (frames at ``map_fps``) apart (:func:`hands_disagreement`) or, after one pass 1 for both arms
+    (alignments ``a``, ``b``), the larger of that and :func:`arms_departure`.
+
+    Returns
+    -------
+    (np.ndarray [shape=(n,)], bool)
+        The disagreement, and whether the arms' departure is part of it.
+    """
+    d = hands_disagreement(map_a, map_b, map_fps)
+    dev = arms_departure(a, b, body_fps)
+    if dev is None:
+        return d, False
+    return np.fmax(d, dev), True  # one pass 1 for both arms: the sides part only in pass 2; the arms' own paths tell
+
+
 def cross_check(sides: dict, log: Log | None = None) -> dict:
     """Fold the hands' disagreement into each side's confidence (two sides, both with one).
 
@@ -108,10 +125,8 @@ def cross_check(sides: dict, log: Log | None = None) -> dict:
         return dict(sides)
     (sa, ra), (sb, rb) = sides.items()
     fps = ra.markers.spaces.hands_fps
-    d = hands_disagreement(ra.hands_frame, rb.hands_frame, fps)
-    dev = arms_departure(ra.alignment, rb.alignment, ra.markers.spaces.body_fps)
-    if dev is not None:  # one pass 1 for both arms: where it departs from either arm's own path
-        d = np.fmax(d, dev)
+    d, shared = sides_disagreement(ra.hands_frame, rb.hands_frame, fps, ra.alignment, rb.alignment,
+                                   ra.markers.spaces.body_fps)
     out = {}
     for s, r in ((sa, ra), (sb, rb)):
         conf = r.alignment.confidence.with_disagreement(d)
@@ -122,7 +137,7 @@ def cross_check(sides: dict, log: Log | None = None) -> dict:
         worst = _worst_ranges(apart, d)
         where = ", ".join(f"{a}-{b} (up to {np.nanmax(d[a:b + 1]):.2f} s)" for a, b in worst)
         share = sum(b - a + 1 for a, b in apart) / n
-        if dev is None:
+        if not shared:
             log.note(f"the {sa} and {sb} hands' alignments disagree by more than {LOW_CONFIDENCE_S:g} s in "
                      f"{100 * share:.0f}% of body frames ({where}): one of them is off there; both sides count "
                      "those frames as low confidence")

@@ -8,7 +8,8 @@ compiled first (as an installed package has it):
 * ``--help``, ``--version``: the parser alone;
 * ``warm run``: the README's quick-start command without ``--plot``;
 * ``with --plot``: the same with ``--plot``; ``--plot added`` is the difference (target <= 0.5 s);
-* ``import matplotlib``: what ``--plot`` pays before drawing anything;
+* ``import Pillow``: what ``--plot`` pays before drawing anything (0.6.0 and before drew with
+  matplotlib: ``import matplotlib`` is printed beside it for that comparison);
 * ``first run`` (``--first``): the warm-run command with ``NUMBA_CACHE_DIR`` set to a new, empty
   folder, so every kernel the run calls is compiled (once; min over ``--first-repeat`` runs).
 
@@ -67,6 +68,8 @@ def main(argv=None) -> int:
         _wall(base, env)  # fill numba's cache (if cold) and the OS file cache
         rows = {}
         rows["import numpy"] = _min([py, "-c", "import numpy"], args.repeat, env)
+        rows["import Pillow"] = _sub(_min([py, "-c", "import numpy, PIL.Image, PIL.ImageDraw, PIL.ImageFont"],
+                                          args.repeat, env), rows["import numpy"])
         rows["import matplotlib"] = _sub(_min([py, "-c", "import numpy, matplotlib.figure, matplotlib.backends.backend_agg"],
                                               args.repeat, env), rows["import numpy"])
         rows["--help"] = _min([py, "-m", "splicer.cli", "--help"], args.repeat, env)

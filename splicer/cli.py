@@ -345,15 +345,14 @@ def main(argv=None) -> int:
                 _write_json(result.report.to_dict(), Path(args.report))
             after["write"] = time.perf_counter() - t1
             if args.plot:
-                with _signals_held():  # an interrupt inside matplotlib's C extensions' start-up is an ImportError
-                    import matplotlib.backends.backend_agg  # noqa: F401
-                    import matplotlib.figure  # noqa: F401
+                progress("plot", 0.5)
+                t1 = time.perf_counter()  # the plot's time includes importing what draws it
+                with _signals_held():  # an interrupt inside Pillow's C extensions (start-up, drawing) is an ImportError or worse
+                    import PIL.Image  # noqa: F401
+                    import PIL.ImageDraw  # noqa: F401
 
                     from .plot import plot_alignment
 
-                progress("plot", 0.5)
-                t1 = time.perf_counter()
-                with _signals_held():  # an interrupt inside Agg's C++ drawing comes out as a ValueError
                     plot_alignment(result, args.plot)
                 after["plot"] = time.perf_counter() - t1
             progress.close()

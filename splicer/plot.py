@@ -1,8 +1,8 @@
 """Pictures of an alignment: per side, each pass's local costs inside its band, the user's
 constraint windows and the chosen path.
 
-Drawn on a :class:`matplotlib.figure.Figure` with its own Agg canvas: no pyplot, no global
-figure list, and the caller's matplotlib backend is left as it is.  Each pass's band is one
+Drawn with :mod:`splicer._chart` on Pillow (matplotlib's import alone took most of issue 12's
+0.5 s for a plot): no process state, no global figure list.  Each pass's band is one
 image (the local costs sampled on at most ``max_pixels`` per side), so a plot of a long take
 costs no more than a short one."""
 
@@ -14,12 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .io.atomic import write_atomic
+from ._chart import Figure
 from .errors import SplicerError
+from .io.atomic import write_atomic
 
-__all__ = ["band_image", "plot_alignment"]
+__all__ = ["band_image", "figure", "plot_alignment"]
 
 _MAX_PIXELS = 700
+_WHITE, _RED, _ORANGE, _BLACK, _GRAY = (255, 255, 255), (255, 0, 0), (255, 165, 0), (0, 0, 0), (128, 128, 128)
+_TAB_GRAY, _TAB_RED = (127, 127, 127), (214, 39, 40)
 _CELL_BUDGET = 4_000_000  # local costs computed at once for a band image (32 MB of float64)
 
 
@@ -53,21 +56,6 @@ def band_image(pass_result, *, max_pixels: int = _MAX_PIXELS) -> tuple[np.ndarra
     return img, (n - 1) / max(len(rows) - 1, 1), (m - 1) / max(len(cols) - 1, 1)
 
 
-def _few_ticks(ax, nbins: int = 5) -> None:
-    """At most ``nbins`` + 1 major ticks a side, no minor ones: tick labels are most of a figure's drawing time."""
-    from matplotlib.ticker import MaxNLocator
-
-    ax.xaxis.set_major_locator(MaxNLocator(nbins, integer=True))
-    ax.yaxis.set_major_locator(MaxNLocator(nbins, integer=True))
-    ax.minorticks_off()
-
-
-def _pins(ax, x, y, tol) -> None:
-    """Matching frames pinned by the animator: one ``errorbar`` (one set of artists) for all of them."""
-    if len(x):
-        ax.errorbar(x, y, yerr=np.stack([tol, tol]), fmt="o", color="orange", ms=4, capsize=3, lw=1.5)
-
-
 def _draw_pass(ax, pr, title, constraints=(), *, max_pixels: int = _MAX_PIXELS, images: dict | None = None):
     """``images``: band images already computed, by pass (one pass 1 shared by both sides is sampled once)."""
     images = {} if images is None else images
@@ -75,36 +63,23 @@ def _draw_pass(ax, pr, title, constraints=(), *, max_pixels: int = _MAX_PIXELS, 
         images[id(pr)] = band_image(pr, max_pixels=max_pixels)
     img, rs, cs = images[id(pr)]
     n, m = pr.band.n, pr.band.m
-    im = ax.imshow(img.T, origin="lower", aspect="auto", cmap="viridis", interpolation="nearest",
-                   extent=(-0.5 * rs, (n - 1) + 0.5 * rs, -0.5 * cs, (m - 1) + 0.5 * cs))
+    im = ax.imshow(img.T, extent=(-0.5 * rs, (n - 1) + 0.5 * rs, -0.5 * cs, (m - 1) + 0.5 * cs))
     i = np.arange(n)
-    ax.plot(i, pr.band.lo, color="white", lw=0.6, alpha=0.8)
-    ax.plot(i, pr.band.hi, color="white", lw=0.6, alpha=0.8, label="band")
-    ax.plot(pr.path[:, 0], pr.path[:, 1], color="red", lw=1.2, label="path")
-    _pins(ax, [c.x for c in constraints], [c.y for c in constraints], [c.tolerance for c in constraints])
-    ax.set_title(title, fontsize=9, y=1.0, loc="left")  # from the axes' left edge over the colour bar; a fixed place: no measuring of tick labels to avoid
-    ax.set_xlabel("body frame")
-    ax.set_xlim(0, n - 1)
-    ax.set_ylim(0, m - 1)
-    _few_ticks(ax)
+    ax.plot(i, pr.band.lo, _WHITE, 0.6, alpha=0.8)
+    ax.plot(i, pr.band.hi, _WHITE, 0.6, alpha=0.8)
+    ax.plot(pr.path[:, 0], pr.path[:, 1], _RED, 1.2)
+    ax.errorbar([c.x for c in constraints], [c.y for c in constraints], [c.tolerance for c in constraints], _ORANGE)
+    ax.title, ax.title_size, ax.title_loc = title, 9, "left"  # from the axes' left edge, over the colour bar
+    ax.xlabel = "body frame"
+    ax.xlim, ax.ylim = (0, n - 1), (0, m - 1)
     return im
 
 
-def _shade(ax, mask: np.ndarray, color: str, label: str) -> None:
-    """Shade the runs of ``mask`` (body frames, each ``[i - 0.5, i + 0.5]``) over the axis' height.
-
-    One collection for all runs (one legend entry, one artist to draw however many runs there are).
-    """
-    from matplotlib.collections import PolyCollection
-
+def _ranges(mask: np.ndarray) -> list[tuple[float, float]]:
+    """The runs of ``mask`` as ``(first - 0.5, last + 0.5)``: body frames, each ``[i - 0.5, i + 0.5]``."""
     from .transfer.timemap import frame_ranges
 
-    ranges = frame_ranges(mask)
-    if not ranges:
-        return
-    verts = [[(a - 0.5, 0.0), (b + 0.5, 0.0), (b + 0.5, 1.0), (a - 0.5, 1.0)] for a, b in ranges]
-    ax.add_collection(PolyCollection(verts, facecolors=color, alpha=0.2, linewidths=0, label=label,
-                                     transform=ax.get_xaxis_transform()), autolim=False)
+    return [(a - 0.5, b + 0.5) for a, b in frame_ranges(mask)]
 
 
 # Layout in inches of one side's cell (4.2 x 3.6 in): fixed rectangles instead of tight_layout, which
@@ -136,10 +111,13 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         Pixels per inch: the image is ``4.2 x (passes + 1)`` inches wide and ``3.6`` inches
         high per side.
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.ticker import MaxNLocator
+    fig = figure(result, dpi=dpi)
+    write_atomic(Path(path), fig.save, what="plot")
 
+
+def figure(result, *, dpi: int = 110) -> Figure:
+    """The alignment plot of ``result`` as a scene, not yet drawn: :func:`plot_alignment` draws
+    and writes it; tests read its axes (:class:`splicer._chart.Axes`)."""
     from .align.passes import hold_ends, path_median, remap_constraints
     from .pipeline import LOW_CONFIDENCE_S
 
@@ -149,8 +127,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
     ncols = max(sum(p is not None for p in (s.pass1, s.pass2)) for s in sides) + 1
     nrows = len(sides)
     fig_w, fig_h = _CELL_W * ncols, _CELL_H * nrows
-    fig = Figure(figsize=(fig_w, fig_h))
-    FigureCanvasAgg(fig)
+    fig = Figure(fig_w, fig_h, dpi)
     pass_left = map_left = _LEFT + 0.1  # four-digit hands frames and the axis label beside them
     pass_w = _CELL_W - pass_left - _CBAR_GAP - _CBAR_W - _CBAR_LABELS
     map_w = _CELL_W - map_left - 0.2
@@ -161,12 +138,6 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
         ax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, pass_left, pass_w))
         cax = fig.add_axes(_rect(fig_w, fig_h, row, col, nrows, pass_left + pass_w + _CBAR_GAP, _CBAR_W))
         return ax, cax
-
-    def colorbar(im, cax, label):
-        cb = fig.colorbar(im, cax=cax)
-        cb.set_label(label, fontsize=8)
-        cax.yaxis.set_major_locator(MaxNLocator(5))
-        cax.minorticks_off()
 
     images: dict = {}  # band images by pass: a pass 1 shared by both sides is sampled once
     for row, s in enumerate(sides):
@@ -179,8 +150,8 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             what = ("both arms, D1" if s.pass1.arms > 1 else "phase metric D1") + (" + positions" if w else "")
             im = _draw_pass(ax, s.pass1, f"{s.side}: pass 1, {what} (band {s.pass1.band.width:.0f} frames)", cons,
                             max_pixels=px, images=images)
-            ax.set_ylabel("hands frame (body rate)")
-            colorbar(im, cax, f"D1 + {w:g} x position term" if w else "D1 (squared sign differences)")
+            ax.ylabel = "hands frame (body rate)"
+            fig.colorbar(im, cax, f"D1 + {w:g} x position term" if w else "D1 (squared sign differences)")
             k += 1
         if s.pass2 is not None:
             ax, cax = pass_axes(row, k)
@@ -188,24 +159,24 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
             c2 = cons if map1 is None else remap_constraints(cons, map1)
             im = _draw_pass(ax, s.pass2, f"{s.side}: pass 2, palm metric D2 (band {s.pass2.band.width:.0f} frames)", c2,
                             max_pixels=px)
-            ax.set_ylabel("warped hands frame" if s.pass1 is not None else "hands frame (body rate)")
-            colorbar(im, cax, "D2 + departure penalty (rad)")
+            ax.ylabel = "warped hands frame" if s.pass1 is not None else "hands frame (body rate)"
+            fig.colorbar(im, cax, "D2 + departure penalty (rad)")
             k += 1
         ax = fig.add_axes(_rect(fig_w, fig_h, row, ncols - 1, nrows, map_left, map_w))
         t = np.arange(n)
-        ax.plot(t, s.hands_frame, color="black", lw=1.2, label="hands frame used")
+        ax.plot(t, s.hands_frame, _BLACK, 1.2, label="hands frame used")
         top = float(np.nanmax(s.hands_frame)) if np.isfinite(s.hands_frame).any() else 0.0
-        ax.plot(t, np.linspace(0.0, top, n), color="gray", lw=0.8, ls="--", label="uniform time scaling")
-        _shade(ax, ~np.isfinite(s.hands_frame), "tab:gray", "no hands material")
+        ax.plot(t, np.linspace(0.0, top, n), _GRAY, 0.8, dashed=True, label="uniform time scaling")
+        gaps = _ranges(~np.isfinite(s.hands_frame))
+        if gaps:
+            ax.axvspans(gaps, _TAB_GRAY, 0.2, "no hands material")
         conf = s.alignment.confidence
         if conf is not None:
-            _shade(ax, np.isfinite(conf.est_error_s) & (conf.est_error_s > LOW_CONFIDENCE_S), "tab:red",
-                   f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
-        _pins(ax, [p.body for p in s.pins], [p.hands for p in s.pins], [p.tolerance for p in s.pins])
-        ax.set_title(f"{s.side}: time map", fontsize=9, y=1.0)
-        ax.set_xlabel("body frame")
-        ax.set_ylabel("hands-file frame")
-        ax.legend(fontsize=7, loc="upper left")
-        _few_ticks(ax)
-    dest = Path(path)
-    write_atomic(dest, lambda f: fig.savefig(f, dpi=dpi, format="png"), what="plot")
+            low = _ranges(np.isfinite(conf.est_error_s) & (conf.est_error_s > LOW_CONFIDENCE_S))
+            if low:
+                ax.axvspans(low, _TAB_RED, 0.2, f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
+        ax.errorbar([p.body for p in s.pins], [p.hands for p in s.pins], [p.tolerance for p in s.pins], _ORANGE)
+        ax.title, ax.title_size = f"{s.side}: time map", 9
+        ax.xlabel, ax.ylabel = "body frame", "hands-file frame"
+        ax.legend_size = 7
+    return fig

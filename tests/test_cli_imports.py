@@ -1,5 +1,5 @@
 """What the ``splice`` command imports (issue 12): ``--help`` and ``--version`` nothing numeric, and a
-run without ``--plot`` no matplotlib.  Modules, not seconds: the times are benchmarks/bench_startup.py's."""
+run without ``--plot`` no plotting library, and one with it Pillow but not matplotlib.  Modules, not seconds: the times are benchmarks/bench_startup.py's."""
 
 from __future__ import annotations
 
@@ -65,3 +65,11 @@ def test_numba_started_without_scipy_leaves_scipy_importable(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path, check=True)
     assert out.stdout.strip() == "0.75"
+
+
+@pytest.mark.slow
+def test_a_run_with_plot_draws_with_pillow_not_matplotlib(tmp_path):
+    code, mods = _modules(str(MOTIONS / "sample_body.bvh"), str(MOTIONS / "sample_hands.bvh"), "-o", "out.bvh",
+                          "--plot", "p.png", "-q", cwd=tmp_path)
+    assert code == 0 and (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "PIL" in mods and "matplotlib" not in mods

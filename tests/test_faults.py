@@ -210,9 +210,9 @@ def _in_process_interrupt(tmp_path, monkeypatch, target, attr, quiet=True):
 
 def test_sigint_while_plotting_writes_nothing(tmp_path, monkeypatch):
     """Fault: SIGINT late in a run said 'nothing was written' though -o and the report were."""
-    import matplotlib.figure
+    from splicer import _chart
 
-    status, line, outs = _in_process_interrupt(tmp_path, monkeypatch, matplotlib.figure.Figure, "savefig")
+    status, line, outs = _in_process_interrupt(tmp_path, monkeypatch, _chart.Figure, "save")
     assert status == 130 and line == "splice: interrupted (SIGINT); nothing was written"
     assert _outputs_consistent(tmp_path, outs, line, status) == "none"
 
@@ -229,8 +229,8 @@ def test_sigint_after_the_commit_says_what_was_written(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGHUP])
 def test_signal_during_the_drawing_waits_for_it(tmp_path, monkeypatch, sig):
-    """Fault: a SIGHUP inside matplotlib's C++ drawing (Agg) came out as 'ValueError: Invalid
-    bounding box' with a traceback and exit 1.  A signal sent while the plot is drawn takes
+    """Fault (0.5.0, with matplotlib): a SIGHUP inside its C++ drawing (Agg) came out as 'ValueError:
+    Invalid bounding box' with a traceback and exit 1.  A signal sent while the plot is drawn takes
     effect when it is drawn: interrupted, nothing written."""
     from splicer import plot
 

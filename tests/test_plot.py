@@ -1,4 +1,4 @@
-"""splicer.plot: band images by hand, and the PNG of a real splice (size, no global state)."""
+"""splicer.plot: band images by hand, and the plot of a real splice: its scene and its pixels."""
 
 import struct
 from pathlib import Path
@@ -64,19 +64,12 @@ def sample_result():
                   config=str(MOTIONS / "sample_sync.yaml"))
 
 
-def test_plot_writes_a_png_of_the_stated_size_without_touching_pyplot(sample_result, tmp_path):
-    import matplotlib
-    import matplotlib.pyplot as plt
-
-    backend = matplotlib.get_backend()
-    figures = plt.get_fignums()
+def test_plot_writes_a_png_of_the_stated_size(sample_result, tmp_path):
     out = tmp_path / "align.png"
     plot_alignment(sample_result, out, dpi=50)
     # one row per side; pass 1, pass 2 and the time map: 3 x 4.2 in by 3.6 in per side, at 50 dpi
     rows = len(sample_result.sides)
     assert _png_size(out) == (round(3 * 4.2 * 50), round(rows * 3.6 * 50))
-    assert matplotlib.get_backend() == backend
-    assert plt.get_fignums() == figures
     assert [p.name for p in tmp_path.iterdir()] == ["align.png"]  # no temporary file left
 
 
@@ -90,34 +83,74 @@ def test_plot_refuses_an_empty_result_and_names_an_unwritable_path(sample_result
         plot_alignment(sample_result, tmp_path / "no-such-dir" / "x.png")
 
 
-def test_plot_content_axes_shading_and_few_ticks(sample_result, tmp_path, monkeypatch):
+def test_plot_content_axes_shading_and_few_ticks(sample_result):
     """Per side: two band images with their colour bars and a time map whose shaded ranges are
-    one collection per kind (however many runs), and at most 7 ticks an axis."""
-    from matplotlib.collections import PolyCollection
-    from matplotlib.figure import Figure
-
+    one group per kind (however many runs), and at most 7 ticks an axis."""
     from splicer.pipeline import LOW_CONFIDENCE_S
+    from splicer.plot import figure
     from splicer.transfer.timemap import frame_ranges
 
-    figs = []
-    real_savefig = Figure.savefig
-    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (figs.append(self), real_savefig(self, *a, **k))[1])
-    plot_alignment(sample_result, tmp_path / "p.png", dpi=40)
-    (fig,) = figs
+    fig = figure(sample_result, dpi=40)
     sides = list(sample_result.sides.values())
     assert len(fig.axes) == 5 * len(sides)  # pass 1 + colour bar, pass 2 + colour bar, time map
-    maps = [ax for ax in fig.axes if ax.get_title().endswith("time map")]
+    maps = [ax for ax in fig.axes if ax.title.endswith("time map")]
     assert len(maps) == len(sides)
     for ax, s in zip(maps, sides):
         low = np.isfinite(s.alignment.confidence.est_error_s) & (s.alignment.confidence.est_error_s > LOW_CONFIDENCE_S)
         ranges = frame_ranges(low)
         assert ranges  # the sample has low-confidence frames on both sides
-        shades = [c for c in ax.collections if isinstance(c, PolyCollection) and c.get_label().startswith("low confidence")]
-        assert len(shades) == 1 and len(shades[0].get_paths()) == len(ranges)
-        x0, x1 = shades[0].get_paths()[0].vertices[:, 0].min(), shades[0].get_paths()[0].vertices[:, 0].max()
-        assert (x0, x1) == (ranges[0][0] - 0.5, ranges[0][1] + 0.5)
-        assert [t.get_text() for t in ax.get_legend().get_texts()][-1].startswith("low confidence")
-    images = [im for ax in fig.axes for im in ax.images]
-    assert len(images) == 2 * len(sides)
+        shades = [sp for sp in ax.spans if sp.label.startswith("low confidence")]
+        assert len(shades) == 1 and len(shades[0].ranges) == len(ranges)
+        assert shades[0].ranges[0] == (ranges[0][0] - 0.5, ranges[0][1] + 0.5)
+        assert ax.legend_size and [ln.label for ln in ax.lines] == ["hands frame used", "uniform time scaling"]
+        np.testing.assert_array_equal(ax.lines[0].y, s.hands_frame)
+        assert not [sp for sp in ax.spans if sp.label == "no hands material"]  # the sample is covered throughout
+    passes = [ax for ax in fig.axes if ax.images and not ax.ticks_right]
+    assert len(passes) == 2 * len(sides) and all(len(ax.images) == 1 for ax in passes)
+    assert [ax.title.split(":")[1].split(",")[0].strip() for ax in passes[:2]] == ["pass 1", "pass 2"]
+    for ax in passes:  # the chosen path in red over the band image, the band's two edges in white
+        assert [ln.color for ln in ax.lines] == [(255, 255, 255), (255, 255, 255), (255, 0, 0)]
+    assert len([ax for ax in fig.axes if ax.ticks_right]) == 2 * len(sides)  # colour bars
     for ax in fig.axes:
-        assert len(ax.yaxis.get_majorticklocs()) <= 7 and not len(ax.yaxis.get_minorticklocs())
+        assert len(ax.yticks()) <= 7 and len(ax.xticks()) <= 7
+
+
+def test_plot_pixels_show_the_shading_and_the_band(sample_result, tmp_path):
+    """The drawn PNG: a low-confidence body frame's column on the time map is tinted red, a
+    confident one is not; inside pass 1's band the cost colours, outside it white."""
+    from PIL import Image
+
+    from splicer.pipeline import LOW_CONFIDENCE_S
+    from splicer.plot import figure
+
+    fig = figure(sample_result, dpi=60)
+    plot_alignment(sample_result, tmp_path / "p.png", dpi=60)
+    with Image.open(tmp_path / "p.png") as im:
+        px = np.asarray(im.convert("RGB")).astype(int)
+    W, H = fig.size_px
+    s = next(iter(sample_result.sides.values()))
+    tmap = next(ax for ax in fig.axes if ax.title.endswith("time map"))
+    (xa, xb), _ = tmap.limits()
+    l, b, w, h = tmap.rect
+    low = np.isfinite(s.alignment.confidence.est_error_s) & (s.alignment.confidence.est_error_s > LOW_CONFIDENCE_S)
+
+    def column(frame):  # pixel column of a body frame on the time map
+        return round((l + (frame - xa) / (xb - xa) * w) * W)
+
+    y = round((1 - b - 0.15 * h) * H)  # near the bottom, away from the legend and the map's line
+    flagged = next(i for i in range(2, len(low) - 2) if low[i - 2:i + 3].all())
+    calm = next(i for i in range(2, len(low) - 2) if not low[i - 2:i + 3].any())
+    r, g, bl = px[y, column(flagged)]
+    assert r > 240 and g < 230 and bl < 230  # white under red at 0.2: (245, 215, 215)
+    assert px[y, column(calm)].tolist() == [255, 255, 255]
+    p1 = next(ax for ax in fig.axes if ": pass 1" in ax.title)
+    (xa, xb), (ya, yb) = p1.limits()
+    l, b, w, h = p1.rect
+    i = len(s.hands_frame) // 2
+    j = float(s.pass1.path[s.pass1.path[:, 0] == i][0, 1])  # on the chosen path: inside the band
+    x = round((l + (i - xa) / (xb - xa) * w) * W)
+    inside = px[round((1 - b - (j + 0.3 * s.pass1.band.width - ya) / (yb - ya) * h) * H), x]
+    jo = min(j + 3 * s.pass1.band.width, ya + 0.95 * (yb - ya))
+    assert s.pass1.band.lo[i] < j + 0.3 * s.pass1.band.width < s.pass1.band.hi[i] < jo
+    outside = px[round((1 - b - (jo - ya) / (yb - ya) * h) * H), x]
+    assert inside.tolist() != [255, 255, 255] and outside.tolist() == [255, 255, 255]

@@ -243,7 +243,11 @@ class Axes:
             pad = 0.05 * (hi - lo) if hi > lo else 0.5
             return (lo - pad, hi + pad)
 
-        return (self.xlim or auto(xs)), (self.ylim or auto(ys))
+        def proper(lim):  # a view of zero width (a one-frame take) is widened to one unit, as matplotlib does
+            lo, hi = float(lim[0]), float(lim[1])
+            return (lo, hi) if hi > lo else (lo - 0.5, lo + 0.5)
+
+        return proper(self.xlim or auto(xs)), proper(self.ylim or auto(ys))
 
     def xticks(self) -> np.ndarray:
         lo, hi = self.limits()[0]

@@ -139,3 +139,14 @@ def test_text_falls_back_to_pillows_font_without_matplotlibs(tmp_path, monkeypat
     px = _pixels(fig)
     assert px.shape == (50, 100, 3)
     assert (px[:12].sum(axis=2) < 600).any()  # the title's ink above the axes
+
+
+def test_a_view_of_zero_width_is_widened():
+    # a one-frame take: xlim (0, 0) would divide by zero when mapping data to pixels
+    fig = Figure(1.0, 1.0, 20)
+    ax = fig.add_axes([0.2, 0.2, 0.6, 0.6])
+    ax.xlim, ax.ylim = (0, 0), (3, 3)
+    ax.plot([0], [3], (0, 0, 0), 1.0)
+    ax.imshow(np.array([[1.0]]), extent=(-0.5, 0.5, 2.5, 3.5))
+    assert ax.limits() == ((-0.5, 0.5), (2.5, 3.5))
+    assert ax.xticks().tolist() == [0.0] and _pixels(fig).shape == (20, 20, 3)

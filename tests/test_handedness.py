@@ -36,6 +36,24 @@ def test_proper_hands_are_told_apart_by_their_flexion(take):
         assert h.right_share == (1.0 if side == "right" else 0.0)
 
 
+def test_a_long_take_votes_on_evenly_spaced_frames(take, monkeypatch):
+    """Above VOTE_FRAMES frames the vote reads that many, spread over the whole take, and
+    decides as the whole take does (here: 361 frames read 100 at a time)."""
+    from splicer.rig import handedness as H
+
+    roles = find_roles(take.skeleton)
+    whole = {s: hand_handedness(take, roles.sides[s]) for s in ("left", "right")}
+    read = []
+    real = H.finger_angles
+    monkeypatch.setattr(H, "finger_angles", lambda m, *a: read.append(m.n_frames) or real(m, *a))
+    monkeypatch.setattr(H, "VOTE_FRAMES", 100)
+    for s in ("left", "right"):
+        h = hand_handedness(take, roles.sides[s])
+        assert (h.geometric, h.status, h.right_share) == (whole[s].geometric, "flexion", whole[s].right_share)
+        assert 0 < h.votes < whole[s].votes
+    assert take.n_frames == 361 and read == [100, 100]
+
+
 @pytest.mark.parametrize("axis", [0, 1, 2])
 def test_mirror_reflects_world_positions_and_swaps_handedness(take, axis):
     short = take.slice(0, 60)

@@ -364,6 +364,10 @@ class _Painter:
 
         rows, cols = im.data.shape
         left, right, bottom, top = im.extent
+        if not right > left:  # one sample of no width (a one-frame band): half a unit each side
+            left, right = left - 0.5, left + 0.5
+        if not top > bottom:
+            bottom, top = bottom - 0.5, bottom + 0.5
         xs = xa + (np.arange(w) + 0.5) / w * (xb - xa)
         ys = yb - (np.arange(h) + 0.5) / h * (yb - ya)  # top pixel row first
         ci = np.floor((xs - left) / (right - left) * cols).astype(np.intp)

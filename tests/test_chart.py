@@ -150,3 +150,13 @@ def test_a_view_of_zero_width_is_widened():
     ax.imshow(np.array([[1.0]]), extent=(-0.5, 0.5, 2.5, 3.5))
     assert ax.limits() == ((-0.5, 0.5), (2.5, 3.5))
     assert ax.xticks().tolist() == [0.0] and _pixels(fig).shape == (20, 20, 3)
+
+
+def test_an_image_of_no_extent_is_drawn_as_one_unit_wide():
+    # band_image of a one-frame pass has 0 frames per pixel: extent (0, 0)
+    fig = Figure(1.0, 1.0, 20)
+    ax = fig.add_axes([0, 0, 1, 1])
+    ax.imshow(np.array([[5.0]]), extent=(0.0, 0.0, 0.0, 0.0))
+    ax.xlim, ax.ylim, ax.show_x = (0, 0), (0, 0), False
+    px = _pixels(fig)
+    assert px[10, 10].tolist() == [68, 1, 84]  # the one value fills the view: no division by zero, no warning

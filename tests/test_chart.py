@@ -4,7 +4,8 @@ figures whose every colour can be worked out by hand."""
 import numpy as np
 import pytest
 
-from splicer._chart import Figure, _dashes, nice_ticks, tick_labels, viridis
+from splicer._chart import Figure, nice_ticks, tick_labels, viridis
+from splicer._paint import _dashes
 
 
 @pytest.mark.parametrize("lo, hi, kw, want", [
@@ -128,10 +129,10 @@ def test_save_writes_a_png_of_the_stated_size(tmp_path):
 
 
 def test_text_falls_back_to_pillows_font_without_matplotlibs(tmp_path, monkeypatch):
-    from splicer import _chart
+    from splicer import _paint
 
-    monkeypatch.setattr(_chart, "_font_file", lambda: None)
-    monkeypatch.setattr(_chart, "_FONTS", {})
+    monkeypatch.setattr(_paint, "_font_file", lambda: None)
+    monkeypatch.setattr(_paint, "_FONTS", {})
     fig = Figure(2.0, 1.0, 50)
     ax = fig.add_axes([0.3, 0.3, 0.6, 0.5])
     ax.plot([0, 1], [0, 1], (0, 0, 0), 1.0)

@@ -283,3 +283,13 @@ def test_cli_reports_repairs_and_no_repair_turns_them_off(hands, tmp_path, capsy
                  "--no-repair"]) == 0
     rep = json.loads((tmp_path / "b.json").read_text())
     assert rep["hands_repairs"] == [] and rep["options"]["repair"] == "off"
+
+
+def test_the_search_reports_its_progress_joint_by_joint(hands, joints):
+    """Two passes over the joints (frozen stretches, then spikes): one call per joint each, rising
+    from 0 to below 1; the result is the same with or without the callback."""
+    seen = []
+    _, reps = repair_motion(hands, joints, progress=seen.append)
+    assert len(seen) == 2 * len(joints) and seen == sorted(seen) and seen[0] == 0.0 and seen[-1] < 1.0
+    assert seen[len(joints)] == 0.5
+    assert reps == repair_motion(hands, joints)[1]

@@ -72,8 +72,8 @@ def _quats(motion: Motion, channels: np.ndarray, j: int) -> np.ndarray | None:
     return quat_hemisphere(quat_from_euler(channels[:, cols], sk.rotation_order(j)), axis=0)
 
 
-def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX_FINGER_SPEED_DEG_S
-                    ) -> dict[int, dict[str, np.ndarray]]:
+def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX_FINGER_SPEED_DEG_S,
+                    progress=None) -> dict[int, dict[str, np.ndarray]]:
     """Broken frames per joint and kind (see the module docstring), without repairing.
 
     Parameters
@@ -84,6 +84,9 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         rows of the whole file.  "The other joints of the hand" of the frozen test are these.
     max_speed_deg_s : float
         Angular speed limit of the jump test, degrees per second.
+    progress : callable, optional
+        ``progress(fraction)`` after each joint of each test (a 70-minute hand take takes
+        seconds).
 
     Returns
     -------
@@ -131,7 +134,9 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
             changes[:, k] = np.any(ch[1:, span[j]] != ch[:-1, span[j]], axis=1)
     n_changing = changes.sum(axis=1)
     min_len = max(FROZEN_MIN_FRAMES, int(np.ceil(FROZEN_MIN_S * motion.fps - 1e-9)))
+    tick = (lambda f: None) if progress is None else progress
     for k, j in enumerate(joints):
+        tick(0.5 * k / len(joints))
         cols = sk.rotation_columns(j)
         if not cols:
             continue
@@ -165,7 +170,8 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
             out.setdefault(j, {})["frozen"] = mask
     # jumps: spikes of up to SPIKE_MAX_FRAMES frames, measured on the frames not already broken
     lim = max_speed_deg_s / motion.fps  # degrees per frame
-    for j in joints:
+    for k, j in enumerate(joints):
+        tick(0.5 + 0.5 * k / len(joints))
         flagged = np.zeros(T, dtype=bool)
         for m in out.get(j, {}).values():
             flagged |= m

@@ -133,8 +133,8 @@ def _fill_joint(motion: Motion, ch: np.ndarray, j: int, bad: np.ndarray, max_ext
     return done
 
 
-def repair_motion(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX_FINGER_SPEED_DEG_S
-                  ) -> tuple[Motion, list[Repair]]:
+def repair_motion(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX_FINGER_SPEED_DEG_S,
+                  progress=None) -> tuple[Motion, list[Repair]]:
     """Find and repair dropouts and gaps in a (hand) capture.
 
     Parameters
@@ -146,6 +146,8 @@ def repair_motion(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX_F
         A zero row is repaired for every joint.
     max_speed_deg_s : float
         Angular speed above which a there-and-back move is a spike, degrees per second.
+    progress : callable, optional
+        ``progress(fraction)`` during the search (:func:`splicer.rig.dropouts.detect_problems`).
 
     Returns
     -------
@@ -164,7 +166,7 @@ def repair_motion(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX_F
     if not (max_speed_deg_s > 0 and np.isfinite(max_speed_deg_s)):
         raise SplicerError(f"max_speed_deg_s must be a positive number, not {max_speed_deg_s!r}")
     sk = motion.skeleton
-    found = detect_problems(motion, joints, max_speed_deg_s=max_speed_deg_s)
+    found = detect_problems(motion, joints, max_speed_deg_s=max_speed_deg_s, progress=progress)
     if not found:
         return motion, []
     ch = np.array(motion.channels)

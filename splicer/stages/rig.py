@@ -103,7 +103,8 @@ def condition_hands(inputs: Inputs, rig: Rig, opts: SpliceOptions, log: Log | No
     hm, repairs = inputs.hands, []
     log.progress("checks: dropouts", 0.0)
     if opts.repair == "on":  # dropouts and gaps of the hand capture, repaired before aligning (and listed)
-        hm, repairs = repair_motion(hm, hand_joints(hm.skeleton, [rig.hands.sides[s] for s in rig.sides]))
+        hm, repairs = repair_motion(hm, hand_joints(hm.skeleton, [rig.hands.sides[s] for s in rig.sides]),
+                                    progress=lambda f: log.progress("checks: dropouts", 0.5 * f))
         if repairs:
             log.note(repairs_summary(repairs, hm.source or "hands"))
     mode = opts.mirror_hands or inputs.config.mirror_hands or "auto"

@@ -78,9 +78,11 @@ def check_fingers(transfer: Transfer, side: str, inputs: Inputs, rig: Rig, tm: n
     from ..transfer.sanity import finger_sanity, sanity_warnings
 
     log = log or Log()
+    log.progress(f"{side}: finger check", 0.0)
     hm, harm = inputs.hands, rig.hands.sides[side]
     reading = handedness.get("body", {}).get(side, {}).get("geometric") or side
     san = finger_sanity(transfer.motion, transfer.arm, +1 if reading == "right" else -1)
+    log.progress(f"{side}: finger check", 0.5)
     src_read = handedness.get("hands", {}).get(side, {}).get("geometric") or side
     if handedness.get("mirrored"):
         src_read = "left" if src_read == "right" else "right"
@@ -136,6 +138,7 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
     sub = sorted({j for g in fmap.hands for j in g})
     local = FingerMap(fmap.body, tuple(tuple(sub.index(j) for j in g) for g in fmap.hands), fmap.conj, fmap.bones)
     hq = hm.joint_rotations(sub, keep=False)  # the hands take's rotations are not kept (long takes)
+    log.progress(f"{side}: transfer", 0.3)
     covered = np.flatnonzero(np.isfinite(tm))
     tm = np.interp(np.arange(len(tm)), covered, tm[covered])  # uncovered frames: the nearest covered one
     if opts.merge == "timemap":
@@ -152,11 +155,13 @@ def transfer_side(out: Motion, inputs: Inputs, rig: Rig, side: str, alignment: A
         fixed = np.array(sorted({p.body for p in pins}), dtype=np.int64)
         if len(fixed):  # pinned frames show exactly the time map's (pinned) hands frame
             q[fixed] = sample_rotations(hq, tm[fixed])
+    log.progress(f"{side}: transfer", 0.6)
     if fmap.body:
         carried = carried_rotations(q, local)
         if alignment.covered is not None:  # uncovered body frames keep the body's own rotations
             w = coverage_weights(len(tm), alignment.covered, window=int(round(opts.uncovered_blend_s * bm.fps)))
             carried = quat_slerp(out.joint_rotations(list(fmap.body), keep=False), carried, w[:, None])
+        log.progress(f"{side}: transfer", 0.8)
         out = out.with_rotations(list(fmap.body), carried)
     else:
         log.note(f"{side} side: no finger joints could be paired between body and hands")

@@ -1,0 +1,39 @@
+"""The progress a splice reports (what the command's bar shows): every long stage moves, in order."""
+
+from pathlib import Path
+
+import pytest
+
+from splicer import splice
+
+MOTIONS = Path(__file__).resolve().parents[1] / "motions"
+
+
+@pytest.fixture(scope="module")
+def stages():
+    seen = []
+    splice(str(MOTIONS / "sample_body.bvh"), str(MOTIONS / "sample_hands.bvh"),
+           progress=lambda stage, f: seen.append((stage, f)))
+    return seen
+
+
+def _fractions(stages, name):
+    return [f for s, f in stages if s == name]
+
+
+def test_the_dropout_search_moves_the_bar(stages):
+    f = _fractions(stages, "checks: dropouts")
+    assert len(f) > 2 and f == sorted(f) and f[0] == 0.0 and f[-1] < 0.5  # the handedness check is the second half
+    assert _fractions(stages, "checks: handedness") == [0.5]
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_the_transfer_and_the_finger_check_move_the_bar(stages, side):
+    assert _fractions(stages, f"{side}: transfer") == [0.0, 0.3, 0.6, 0.8]
+    assert _fractions(stages, f"{side}: finger check") == [0.0, 0.5]
+    names = [s for s, _ in stages]
+    assert names.index(f"{side}: transfer") < names.index(f"{side}: finger check")  # in the order they run
+
+
+def test_stages_end_with_done(stages):
+    assert stages[-1] == ("done", 1.0)

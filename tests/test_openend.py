@@ -387,9 +387,13 @@ def test_pass1_hands_cover_the_middle_half(sample_markers):
     n = body.n_frames
     a, b = n // 4, 3 * n // 4
     hands = warp_markers(body, a + np.linspace(0, b - a - 1, int((b - a) * 1.1)))
-    res = pass1(body, hands, width=30.0, ends="open")
+    seen = []
+    res = pass1(body, hands, width=30.0, ends="open", progress=seen.append)
     assert 0 < res.covered[0] and res.covered[1] < n - 1      # uncovered at both ends
     assert abs(res.covered[0] - a) <= 5 and abs(res.covered[1] - (b - 1)) <= 5
+    # the bar: the locating pass fills its first half, the full-rate pass the second
+    assert seen == [0.5, 1.0]  # one chunk of rows each here
+    np.testing.assert_array_equal(pass1(body, hands, width=30.0, ends="open").path, res.path)  # same path without it
 
 
 def test_pass1_open_ends_hold_pins(sample_markers):

@@ -340,7 +340,7 @@ def main(argv=None) -> int:
         with tx:  # every output is staged, and appears only at tx.commit()
             progress("write", 0.0)
             t1 = time.perf_counter()
-            write_motion(result.motion, out)  # BVH or FBX by suffix
+            write_motion(result.motion, out, progress=lambda f: progress("write", f))  # BVH or FBX by suffix
             if args.report:
                 _write_json(result.report.to_dict(), Path(args.report))
             after["write"] = time.perf_counter() - t1

@@ -77,6 +77,22 @@ def test_round_trip_random_values(rng, tmp_path):
     assert m2.frame_time == 1 / 120
 
 
+@pytest.mark.parametrize("frames", [50, 70_000])
+def test_writing_reports_the_share_of_frames_written(rng, tmp_path, frames):
+    """A small block in one piece (1.0 once); a large one (70,000 x 15 values, over FAST_MIN_VALUES)
+    in pieces of 4,096 frames: 18 calls, rising to 1.0; the file is the same as without it."""
+    sk = _read(DATA / "xyz_six_channel_child.bvh").skeleton
+    m = Motion(sk, rng.uniform(-90, 90, (frames, 15)), 1 / 120, source="random")
+    seen = []
+    write_bvh(m, tmp_path / "p.bvh", progress=seen.append)
+    write_bvh(m, tmp_path / "q.bvh")
+    assert (tmp_path / "p.bvh").read_bytes() == (tmp_path / "q.bvh").read_bytes()
+    if frames == 50:
+        assert seen == [1.0]
+    else:
+        assert len(seen) == 18 and seen == sorted(seen) and seen[0] == pytest.approx(4096 / 70_000) and seen[-1] == 1.0
+
+
 def test_written_file_is_accepted_by_bvhio(tmp_path):
     write_bvh(_read(DATA / "two_joints_zxy.bvh"), tmp_path / "o.bvh")
     bvh = bvh_module._bvhio().readAsBvh(str(tmp_path / "o.bvh"))

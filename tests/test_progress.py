@@ -35,5 +35,10 @@ def test_the_transfer_and_the_finger_check_move_the_bar(stages, side):
     assert names.index(f"{side}: transfer") < names.index(f"{side}: finger check")  # in the order they run
 
 
+def test_reading_moves_the_bar_by_bytes(stages):
+    body, hands = (MOTIONS / "sample_body.bvh").stat().st_size, (MOTIONS / "sample_hands.bvh").stat().st_size
+    assert _fractions(stages, "read") == [0.0, pytest.approx(body / (body + hands))]
+
+
 def test_stages_end_with_done(stages):
     assert stages[-1] == ("done", 1.0)

@@ -36,13 +36,14 @@ def read_motion(path: str | os.PathLike) -> Motion:
     return read_bvh(path)
 
 
-def write_motion(motion: Motion, path: str | os.PathLike) -> None:
+def write_motion(motion: Motion, path: str | os.PathLike, *, progress=None) -> None:
     """Write ``motion`` as FBX (a ``.fbx`` path) or else BVH, atomically (inside a
-    :class:`~splicer.atomic.Transaction`: staged with the other outputs)."""
+    :class:`~splicer.atomic.Transaction`: staged with the other outputs).  ``progress(fraction)``
+    as the frames are written (BVH; Blender writes an FBX in one call)."""
     if _is_fbx(path):
         from .fbx import write_fbx
 
         return write_fbx(motion, path)
     from .bvh import write_bvh
 
-    return write_bvh(motion, path)
+    return write_bvh(motion, path, progress=progress)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +34,13 @@ class Inputs:
         return FrameSpaces(self.body.n_frames, self.hands.n_frames, self.body.fps, self.hands.fps)
 
 
+def _file_size(path) -> int:
+    try:
+        return os.path.getsize(path)
+    except (OSError, TypeError, ValueError):
+        return 0  # the reader says what is wrong with it
+
+
 def load_inputs(body, hands, config=None, log: Log | None = None, *, body_markers=None,
                 hands_markers=None) -> Inputs:
     """Read both takes (paths or :class:`~splicer.model.Motion`) and the config (path or SpliceConfig).
@@ -47,6 +55,9 @@ def load_inputs(body, hands, config=None, log: Log | None = None, *, body_marker
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SplicerWarning)
         bm = body if isinstance(body, Motion) else read_motion(body)
+        sizes = [0 if isinstance(x, Motion) else _file_size(x) for x in (body, hands)]
+        if sum(sizes):
+            log.progress("read", sizes[0] / sum(sizes))  # the bar by bytes: the body read, the hands next
         hm = hands if isinstance(hands, Motion) else read_motion(hands)
     for w in caught:
         if issubclass(w.category, SplicerWarning):

@@ -342,6 +342,7 @@ def main(argv=None) -> int:
             t1 = time.perf_counter()
             write_motion(result.motion, out, progress=lambda f: progress("write", f))  # BVH or FBX by suffix
             if args.report:
+                progress("report", 0.0)  # a long take's report (per-frame confidence) takes a second or two
                 _write_json(result.report.to_dict(), Path(args.report))
             after["write"] = time.perf_counter() - t1
             if args.plot:

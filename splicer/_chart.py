@@ -9,8 +9,9 @@ module draws the same figure in well under 0.1 s.
 A figure is a scene first: :class:`Axes` keep what was added to them (``images``, ``lines``,
 ``spans``, ``errorbars``, titles, labels, legend) so tests can read it, and
 :meth:`Figure.save` draws it all at ``SUPERSAMPLE`` times the resolution and halves it, which
-smooths the edges of lines and text (:mod:`splicer._paint`). Sizes follow matplotlib's conventions: inches and dots
-per inch for the figure, points (1/72 in) for line widths, marker sizes and fonts.
+smooths the edges of lines and text (:mod:`splicer._paint`). Sizes follow matplotlib's
+conventions: inches and dots per inch for the figure, points (1/72 in) for line widths, marker
+sizes and fonts.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Axes", "Figure", "nice_ticks", "tick_labels", "viridis"]
+__all__ = ["Axes", "Figure", "nice_ticks", "tick_labels", "viridis", "widened"]
 
 SUPERSAMPLE = 2
 
@@ -69,6 +70,17 @@ def viridis(values: np.ndarray, vmin: float, vmax: float) -> np.ndarray:
         idx = np.clip((v - vmin) * (255.0 / span) + 0.5, 0, 255).astype(np.intp)
     idx[np.isnan(v)] = 256
     return _LUT[idx]
+
+
+def widened(lo: float, hi: float) -> tuple[float, float]:
+    """``(lo, hi)``, or one unit around ``lo`` when the range has no width (a one-frame take):
+    matplotlib's rule for a singular view, used here for views and image extents alike.
+
+    >>> widened(0.0, 2.0), widened(3.0, 3.0)
+    ((0.0, 2.0), (2.5, 3.5))
+    """
+    lo, hi = float(lo), float(hi)
+    return (lo, hi) if hi > lo else (lo - 0.5, lo + 0.5)
 
 
 def nice_ticks(lo: float, hi: float, nbins: int = 5, *, integer: bool = False) -> np.ndarray:
@@ -213,11 +225,7 @@ class Axes:
             pad = 0.05 * (hi - lo) if hi > lo else 0.5
             return (lo - pad, hi + pad)
 
-        def proper(lim):  # a view of zero width (a one-frame take) is widened to one unit, as matplotlib does
-            lo, hi = float(lim[0]), float(lim[1])
-            return (lo, hi) if hi > lo else (lo - 0.5, lo + 0.5)
-
-        return proper(self.xlim or auto(xs)), proper(self.ylim or auto(ys))
+        return widened(*(self.xlim or auto(xs))), widened(*(self.ylim or auto(ys)))
 
     def xticks(self) -> np.ndarray:
         lo, hi = self.limits()[0]
@@ -255,11 +263,11 @@ class Figure:
         """The figure as a Pillow RGB image of :attr:`size_px`."""
         from PIL import Image as PILImage
 
+        from ._paint import Painter
+
         s = SUPERSAMPLE
         w, h = self.size_px
         canvas = PILImage.new("RGB", (w * s, h * s), "white")
-        from ._paint import Painter
-
         painter = Painter(canvas, self.dpi * s / 72.0)
         for ax in self.axes:
             painter.axes(ax)

@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 
-from ._chart import Axes, Image, Line, tick_labels, viridis
+from ._chart import Axes, Image, Line, tick_labels, viridis, widened
 
 __all__ = ["Painter"]
 
@@ -42,6 +42,10 @@ def _font(px: int):
             except TypeError:  # pragma: no cover - older Pillow
                 _FONTS[px] = ImageFont.load_default()
     return _FONTS[px]
+
+
+def _rgba(color, alpha: float) -> tuple:
+    return tuple(color) + (round(255 * alpha),)
 
 
 class Painter:
@@ -79,7 +83,7 @@ class Painter:
         layer = self.canvas.crop((x0, y0, x1, y1))
         draw = ImageDraw.Draw(layer, "RGBA")
         for sp in ax.spans:
-            fill = tuple(sp.color) + (round(255 * sp.alpha),)
+            fill = _rgba(sp.color, sp.alpha)
             for a, b in sp.ranges:
                 pa, pb = float(X(a)), float(X(b))
                 if pb >= 0 and pa <= x1 - x0:
@@ -90,7 +94,7 @@ class Painter:
             self._line(draw, X(ln.x), Y(ln.y), ln, x1 - x0)
         for e in ax.errorbars:
             px, py, lo, hi = X(e.x), Y(e.y), Y(e.y - e.yerr), Y(e.y + e.yerr)
-            col, lw, cap, r = tuple(e.color) + (255,), max(1, round(e.lw * self.pt)), e.capsize * self.pt, e.ms * self.pt / 2
+            col, lw, cap, r = _rgba(e.color, 1.0), max(1, round(e.lw * self.pt)), e.capsize * self.pt, e.ms * self.pt / 2
             for u, v, a, b in zip(px, py, lo, hi):
                 draw.line([(u, a), (u, b)], fill=col, width=lw)
                 draw.line([(u - cap, a), (u + cap, a)], fill=col, width=lw)
@@ -110,10 +114,8 @@ class Painter:
 
         rows, cols = im.data.shape
         left, right, bottom, top = im.extent
-        if not right > left:  # one sample of no width (a one-frame band): half a unit each side
-            left, right = left - 0.5, left + 0.5
-        if not top > bottom:
-            bottom, top = bottom - 0.5, bottom + 0.5
+        left, right = widened(left, right)  # one sample of no width (a one-frame band)
+        bottom, top = widened(bottom, top)
         xs = xa + (np.arange(w) + 0.5) / w * (xb - xa)
         ys = yb - (np.arange(h) + 0.5) / h * (yb - ya)  # top pixel row first
         ci = np.floor((xs - left) / (right - left) * cols).astype(np.intp)
@@ -124,21 +126,23 @@ class Painter:
         ci = np.where((ci >= 0) & (ci < cols), ci, cols)
         return PILImage.fromarray(np.ascontiguousarray(rgb[ri[:, None], ci[None, :]]), "RGB")
 
+    def _stroke(self, draw, pts: list, ln: Line) -> None:
+        """``pts`` (pixels) drawn in ``ln``'s colour, width and dashes."""
+        col, lw = _rgba(ln.color, ln.alpha), max(1, round(ln.lw * self.pt))
+        if ln.dashed:
+            for seg in _dashes(pts, 3.7 * ln.lw * self.pt, 1.6 * ln.lw * self.pt):  # matplotlib's "--"
+                draw.line(seg, fill=col, width=lw)
+        elif len(pts) > 1:
+            draw.line(pts, fill=col, width=lw, joint="curve")
+
     def _line(self, draw, px, py, ln: Line, width_px: int) -> None:
-        col = tuple(ln.color) + (round(255 * ln.alpha),)
-        lw = max(1, round(ln.lw * self.pt))
         ok = np.isfinite(px) & np.isfinite(py)
         # runs of finite points; at most ~2 points per pixel column (a 72,000-frame map in a 400-pixel axes)
         edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
         for a, b in zip(edges[::2], edges[1::2]):
             step = max(1, (b - a) // max(2 * width_px, 1))
             idx = np.r_[np.arange(a, b, step), b - 1] if step > 1 else np.arange(a, b)
-            pts = list(zip(px[idx].tolist(), py[idx].tolist()))
-            if ln.dashed:
-                for seg in _dashes(pts, 3.7 * ln.lw * self.pt, 1.6 * ln.lw * self.pt):
-                    draw.line(seg, fill=col, width=lw)
-            elif len(pts) > 1:
-                draw.line(pts, fill=col, width=lw, joint="curve")
+            self._stroke(draw, list(zip(px[idx].tolist(), py[idx].tolist())), ln)
 
     def _text(self, xy, text: str, size_pt: float, anchor: str, *, rotate: bool = False) -> tuple[int, int]:
         """Draw ``text`` at ``xy`` (Pillow anchor); ``rotate``: reading upwards. Returns its (w, h)."""
@@ -172,16 +176,14 @@ class Painter:
             self._text((u, y1 + tl + pad), s, ax.tick_size, "mt")
         yt = ax.yticks()
         widest = 0
-        labels = tick_labels(yt)
-        size = ax.tick_size if not ax.ticks_right else ax.label_size + 2
-        for t, s in zip(yt, labels):
+        for t, s in zip(yt, tick_labels(yt)):
             v = y0 + float(Y(t))
             if ax.ticks_right:
                 self.draw.line([(x1, v), (x1 + tl, v)], fill=k, width=lw)
-                w, _ = self._text((x1 + tl + pad, v), s, size, "lm")
+                w, _ = self._text((x1 + tl + pad, v), s, ax.tick_size, "lm")
             else:
                 self.draw.line([(x0 - tl, v), (x0, v)], fill=k, width=lw)
-                w, _ = self._text((x0 - tl - pad, v), s, size, "rm")
+                w, _ = self._text((x0 - tl - pad, v), s, ax.tick_size, "rm")
             widest = max(widest, w)
         mid = (y0 + y1) / 2
         if ax.ylabel:
@@ -214,13 +216,9 @@ class Painter:
             cy = by0 + pad + line_h * (k + 0.5)
             sx0, sx1 = bx0 + pad, bx0 + pad + sample
             if isinstance(el, Line):
-                col, lw = tuple(el.color) + (round(255 * el.alpha),), max(1, round(el.lw * pt))
-                segs = _dashes([(sx0, cy), (sx1, cy)], 3.7 * el.lw * pt, 1.6 * el.lw * pt) if el.dashed else [[(sx0, cy), (sx1, cy)]]
-                for seg in segs:
-                    self.draw.line(seg, fill=col, width=lw)
+                self._stroke(self.draw, [(sx0, cy), (sx1, cy)], el)
             else:
-                self.draw.rectangle([sx0, cy - 0.35 * line_h, sx1, cy + 0.35 * line_h],
-                                    fill=tuple(el.color) + (round(255 * el.alpha),))
+                self.draw.rectangle([sx0, cy - 0.35 * line_h, sx1, cy + 0.35 * line_h], fill=_rgba(el.color, el.alpha))
             self.draw.text((sx1 + pad, cy), label, fill=(0, 0, 0), font=font, anchor="lm")
 
 

@@ -82,8 +82,8 @@ def _ranges(mask: np.ndarray) -> list[tuple[float, float]]:
     return [(a - 0.5, b + 0.5) for a, b in frame_ranges(mask)]
 
 
-# Layout in inches of one side's cell (4.2 x 3.6 in): fixed rectangles instead of tight_layout, which
-# measures every tick label of every axis (0.3 s on the sample) to find what these constants say.
+# Layout in inches of one side's cell (4.2 x 3.6 in): fixed rectangles (matplotlib's tight_layout, used
+# once, measured every tick label of every axis, 0.3 s on the sample, to find what these say).
 _CELL_W, _CELL_H = 4.2, 3.6
 _LEFT, _BOTTOM, _TOP = 0.62, 0.5, 0.3  # y tick labels and label; x tick labels and label; title
 _CBAR_GAP, _CBAR_W, _CBAR_LABELS = 0.06, 0.12, 0.78  # colorbar: gap, bar, its tick labels and label

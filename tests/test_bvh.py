@@ -93,6 +93,31 @@ def test_writing_reports_the_share_of_frames_written(rng, tmp_path, frames):
         assert len(seen) == 18 and seen == sorted(seen) and seen[0] == pytest.approx(4096 / 70_000) and seen[-1] == 1.0
 
 
+def test_reading_reports_bytes_read_then_parsed_and_keeps_the_parsed_array(rng, tmp_path, monkeypatch):
+    """A 3 MB file read in 1 MB pieces (0.1, 0.2, 0.3 of the bar: READ_SHARE) and parsed in pieces
+    of about 0.5 MB (the rest, rising), ending at 1.0; the values are those of one piece; the
+    Motion holds the parser's array itself (a 1 GB take was copied once more: 0.76 s, 640 MB)."""
+    from splicer.io import bvh_read, fastparse, limits
+
+    sk = _read(DATA / "xyz_six_channel_child.bvh").skeleton
+    m = Motion(sk, rng.uniform(-90, 90, (15_000, 15)), 1 / 120, source="random")
+    path = tmp_path / "big.bvh"
+    write_bvh(m, path)
+    size = path.stat().st_size
+    monkeypatch.setattr(bvh_read, "FAST_MIN_BYTES", 0)  # the compiled parser, as for a large take
+    whole = read_bvh(path)
+    monkeypatch.setattr(limits, "READ_PIECE", 1 << 20)
+    monkeypatch.setattr(fastparse, "PROGRESS_BYTES", 1 << 19)
+    seen = []
+    got = read_bvh(path, progress=seen.append)
+    assert np.array_equal(got.channels, whole.channels) and got.channels.flags.owndata
+    reading = [f for f in seen if f <= bvh_read.READ_SHARE]
+    n_read = -(-size // (1 << 20))
+    assert reading == pytest.approx([bvh_read.READ_SHARE * min(1.0, k * (1 << 20) / size) for k in range(1, n_read + 1)])
+    parsing = seen[len(reading):]
+    assert len(parsing) >= 5 and parsing == sorted(parsing) and parsing[-1] == 1.0
+
+
 def test_written_file_is_accepted_by_bvhio(tmp_path):
     write_bvh(_read(DATA / "two_joints_zxy.bvh"), tmp_path / "o.bvh")
     bvh = bvh_module._bvhio().readAsBvh(str(tmp_path / "o.bvh"))

@@ -213,3 +213,30 @@ def test_parse_block_max_abs(token, kind):
     else:
         assert (res.error.kind, res.error.line, res.error.column, res.error.token) == (kind, 6, 2, token)
         assert res.values.shape == (1, 2)  # the rows before the problem
+
+
+@pytest.mark.parametrize("size_change", [0, +100, -100])
+def test_read_input_reads_a_file_that_shrinks_or_grows_after_it_was_sized(tmp_path, monkeypatch, size_change):
+    """A regular file is read into a buffer of the size fstat gave, in READ_PIECE pieces with
+    progress; if it shrank meanwhile the buffer is cut, if it grew the rest is appended: either way
+    the bytes are the file's."""
+    from splicer.io import limits
+
+    data = bytes(np.random.default_rng(0).integers(32, 127, 5000, dtype=np.uint8))
+    path = tmp_path / "f.txt"
+    path.write_bytes(data)
+    real_fstat = limits.os.fstat
+
+    class Sized:  # fstat's answer with another size, as if the file changed after it
+        def __init__(self, st):
+            self.st_mode, self.st_size = st.st_mode, st.st_size + size_change
+
+    monkeypatch.setattr(limits.os, "fstat", lambda fd: Sized(real_fstat(fd)))
+    monkeypatch.setattr(limits, "READ_PIECE", 1024)
+    seen = []
+    got = limits.read_input(path, max_bytes=10_000, error=ValueError, progress=seen.append)
+    assert bytes(got) == data
+    size = len(data) + size_change
+    n_full = min(len(data), size) // 1024
+    assert seen[:n_full] == pytest.approx([k * 1024 / size for k in range(1, n_full + 1)])
+    assert seen == sorted(seen) and seen[-1] == pytest.approx(min(1.0, len(data) / size))

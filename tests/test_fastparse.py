@@ -91,6 +91,30 @@ def test_random_blocks_equal_float(seed):
     assert err is None
 
 
+@pytest.mark.parametrize("bad_row", [None, 170])
+def test_parsing_in_pieces_gives_the_same_values_errors_and_progress(monkeypatch, bad_row):
+    """The kernel resumes at row starts: pieces of about 300 bytes give float()'s values, the
+    first problem with its line (a bad token in a late piece too), and a rising fraction."""
+    from splicer.io import fastparse
+
+    rng = np.random.default_rng(11)
+    lines = random_block(rng, 200, 4).replace(b"\r\n", b"\n").replace(b"\r", b"\n").split(b"\n")
+    if bad_row is not None:
+        lines[bad_row] = b"1 2 x3 4"
+    buf = b"\n".join(lines)
+    monkeypatch.setattr(fastparse, "PROGRESS_BYTES", 300)
+    seen = []
+    res = fastparse.parse_block(buf, 4, 5, progress=seen.append)
+    ref, ref_err = reference_parse(buf, 4, 5)
+    assert same_bits(res.values, ref)
+    assert len(seen) > 10 and seen == sorted(seen) and 0 < seen[0] and seen[-1] <= 1.0
+    if bad_row is None:
+        assert res.error is None
+    else:
+        e = res.error
+        assert (e.kind, e.line, e.row, e.column, e.token) == ref_err and e.line == 5 + bad_row
+
+
 def test_known_values():
     buf = b"0.1 -0 +2.5e-3 .5 5. 1E2 -0.0000 123456789.125 0.30000000000000004 1e-22 4e22\n"
     got, err = parse_motion_block(buf, 11, 7)

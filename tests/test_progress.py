@@ -37,7 +37,15 @@ def test_the_transfer_and_the_finger_check_move_the_bar(stages, side):
 
 def test_reading_moves_the_bar_by_bytes(stages):
     body, hands = (MOTIONS / "sample_body.bvh").stat().st_size, (MOTIONS / "sample_hands.bvh").stat().st_size
-    assert _fractions(stages, "read") == [0.0, pytest.approx(body / (body + hands))]
+    share = 0.3  # splicer.io.bvh_read.READ_SHARE: reading the bytes, then parsing them
+    t = body + hands
+    assert _fractions(stages, "read") == pytest.approx([0.0, share * body / t, body / t, (body + share * hands) / t, 1.0])
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_the_markers_move_the_bar_by_frames(stages, side):
+    body, hands = 601, 1985  # frames of the bundled sample's takes: the body's markers, then the hands'
+    assert _fractions(stages, f"{side}: markers") == [0.0, pytest.approx(body / (body + hands)), 1.0]
 
 
 def test_stages_end_with_done(stages):

@@ -38,15 +38,20 @@ _HEADER_CHUNK = 1 << 16
 # is faster than importing numba (0.3-0.7 s) and loading or compiling its kernel.
 FAST_MIN_BYTES = 8 << 20
 _LINE_BREAK = re.compile(rb"\r\n|\r|\n")
+#: :func:`read_bvh`'s progress: the share of the bar for reading the bytes (parsing them takes about twice as long)
+READ_SHARE = 0.3
 
 
-def read_bvh(path: str | os.PathLike) -> Motion:
+def read_bvh(path: str | os.PathLike, *, progress=None) -> Motion:
     """Read a BVH file.
 
     Parameters
     ----------
     path : str or os.PathLike
         The ``.bvh`` file.  It is only read, never modified.
+    progress : callable, optional
+        ``progress(fraction)`` as the file is read (up to :data:`READ_SHARE`) and its motion
+        block parsed (the rest), by bytes: a 1 GB take takes seconds.
 
     Returns
     -------
@@ -76,12 +81,14 @@ def read_bvh(path: str | os.PathLike) -> Motion:
     Memory: the file's bytes plus the (T, C) float64 array.
     """
     spath = str(path)
-    data = _read_bytes(Path(path), spath)
+    tick = (lambda f: None) if progress is None else progress
+    data = _read_bytes(Path(path), spath, lambda f: tick(READ_SHARE * f))
     scan, data_offset = _header(data, spath)
     if limits.is_regular_file(path):  # a pipe cannot be read a second time
         cross_check_with_bvhio(spath, scan)
-    values = _parse_motion(data, data_offset, scan, spath)
+    values = _parse_motion(data, data_offset, scan, spath, lambda f: tick(READ_SHARE + (1 - READ_SHARE) * f))
     del data
+    tick(1.0)
     skeleton = Skeleton(
         names=tuple(scan.names),
         parents=np.array(scan.parents, dtype=np.int64),
@@ -92,10 +99,10 @@ def read_bvh(path: str | os.PathLike) -> Motion:
     return Motion(skeleton, _Owned(values), scan.frame_time, source=spath)  # taken over, not copied
 
 
-def _read_bytes(p: Path, spath: str):
+def _read_bytes(p: Path, spath: str, progress=None):
     """The file's bytes (bytes or bytearray), checked for size, line count, emptiness and NUL."""
     data = limits.read_input(p, max_bytes=limits.MAX_BVH_BYTES, what="BVH file",
-                             error=lambda message: BVHError(message, path=spath))
+                             error=lambda message: BVHError(message, path=spath), progress=progress)
     n_cr = data.count(b"\r") if data.find(b"\r") >= 0 else 0  # a fast scan when there is none
     n_lines = max(data.count(b"\n"), n_cr) + 1  # CR-only files too
     if n_lines > limits.MAX_LINES:
@@ -166,8 +173,8 @@ def _header(data, path: str) -> tuple[Scan, int]:
         size *= 2
 
 
-def _parse_motion(data, offset: int, scan: Scan, path: str) -> np.ndarray:
-    """The first ``scan.frames`` data rows as a (T, C) float64 array."""
+def _parse_motion(data, offset: int, scan: Scan, path: str, progress=None) -> np.ndarray:
+    """The first ``scan.frames`` data rows as a (T, C) float64 array (``progress``: :func:`read_bvh`'s)."""
     T, C = scan.frames, scan.n_channels
     first_line = scan.data_start + 1
     block = memoryview(data)[offset:]
@@ -177,7 +184,7 @@ def _parse_motion(data, offset: int, scan: Scan, path: str) -> np.ndarray:
         return _parse_small(bytes(block), scan, path)
     from .fastparse import count_rows, parse_block  # compiled on first use
 
-    res = parse_block(block, C, first_line, max_rows=T, max_abs=limits.MAX_ABS_VALUE)
+    res = parse_block(block, C, first_line, max_rows=T, max_abs=limits.MAX_ABS_VALUE, progress=progress)
     err = res.error
     if err is not None:
         if err.kind == "count":

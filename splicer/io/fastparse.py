@@ -38,6 +38,8 @@ _FALLBACK_CAP = 4096
 
 # kernel status codes
 _DONE, _BAD_TOKEN, _BAD_COUNT, _FALLBACK_FULL, _ROWS_FULL, _BAD_RANGE = 0, 1, 2, 3, 4, 5
+#: :func:`parse_block` parses about this many bytes of text per call of its kernel (and reports progress)
+PROGRESS_BYTES = 16 << 20
 
 
 @dataclass(frozen=True)
@@ -300,10 +302,13 @@ def parse_motion_block(buf, n_channels: int, first_line: int, *, max_rows: int |
 
 
 def parse_block(buf, n_channels: int, first_line: int, *, max_rows: int | None = None,
-                max_abs: float = math.inf) -> ParsedBlock:
+                max_abs: float = math.inf, progress=None) -> ParsedBlock:
     """:func:`parse_motion_block` with a magnitude limit, also telling where it stopped.
 
     ``max_abs``: a value with ``abs(value) > max_abs`` is an error of kind ``"range"``.
+    ``progress``: called as ``progress(fraction of buf's bytes parsed)`` after each
+    :data:`PROGRESS_BYTES` or so (a 1 GB hands take parses for seconds); the rows are parsed
+    in that many pieces either way, with the same values.
     """
     if isinstance(n_channels, bool) or not isinstance(n_channels, (int, np.integer)) or n_channels < 1:
         raise ValueError(f"n_channels must be a whole number >= 1, not {n_channels!r}")
@@ -321,14 +326,16 @@ def parse_block(buf, n_channels: int, first_line: int, *, max_rows: int | None =
     pos, line, row = 0, int(first_line), 0
     last_row_line = 0
     error = None
+    # rows per call of the kernel: about PROGRESS_BYTES of text (it resumes at a row start)
+    piece = max(1, int(cap * PROGRESS_BYTES / max(len(u8), 1)))
     while row < cap or max_rows is None:
         if row >= cap:  # more rows than line feeds (lone CR line ends): grow
             cap = 2 * cap + 16
             grown = np.empty((cap, C), dtype=np.float64)
             grown[:row] = out[:row]
             out = grown
-        status, pos, line, row2, nfb, e0, e1, ecol, rl = _parse_kernel(u8, pos, line, row, C, out, fb, cap,
-                                                                       _POW10, max_abs)
+        status, pos, line, row2, nfb, e0, e1, ecol, rl = _parse_kernel(u8, pos, line, row, C, out, fb,
+                                                                       min(cap, row + piece), _POW10, max_abs)
         if row2 > row:  # rows completed in this call: rl is the line of the last one
             last_row_line = int(rl)
         row = row2
@@ -354,8 +361,10 @@ def parse_block(buf, n_channels: int, first_line: int, *, max_rows: int | None =
             break
         if status == _DONE:
             break
-        # _FALLBACK_FULL: resume at the row start; _ROWS_FULL: stop, or grow when counting
-    values = out[:row]
+        if progress is not None:
+            progress(pos / len(u8))
+        # _FALLBACK_FULL: resume at the row start; _ROWS_FULL: a piece done, or stop, or grow when counting
+    values = out if row == out.shape[0] else out[:row]  # the array itself: a Motion takes it over uncopied
     if row < 0.9 * out.shape[0]:
         values = values.copy()  # do not keep a much larger buffer alive
     return ParsedBlock(values, error, int(pos), last_row_line)

@@ -72,7 +72,12 @@ def one_line(message: str, limit: int = MESSAGE_CHARS) -> str:
     return s if len(s) <= limit else s[: limit - 1] + "…"
 
 
-def read_input(path: str | os.PathLike, *, max_bytes: int, error, what: str = "file") -> bytes | bytearray:
+#: :func:`read_input` reads a regular file in pieces of this many bytes (and reports progress after each)
+READ_PIECE = 16 << 20
+
+
+def read_input(path: str | os.PathLike, *, max_bytes: int, error, what: str = "file",
+               progress=None) -> bytes | bytearray:
     """The bytes of an input file, read once and never more than ``max_bytes``.
 
     Parameters
@@ -84,6 +89,8 @@ def read_input(path: str | os.PathLike, *, max_bytes: int, error, what: str = "f
         ``error(message) -> Exception`` raised for every problem (file not found, a device...).
     what : str
         The kind of file, for messages ("BVH file", "constraints file").
+    progress : callable, optional
+        ``progress(fraction of the file's size read)`` after each :data:`READ_PIECE` bytes (regular files).
     """
     try:
         # O_NONBLOCK: opening a FIFO that no program writes to must not wait forever.
@@ -109,7 +116,23 @@ def read_input(path: str | os.PathLike, *, max_bytes: int, error, what: str = "f
             raise error(f"the file is {st.st_size:,} bytes, more than the limit of {max_bytes:,} bytes")
         if stat.S_ISFIFO(st.st_mode):  # read the pipe to its end (EOF at once if nobody writes)
             os.set_blocking(fd, True)
-        buf = bytearray()
+        # a regular file is read into a buffer of its size (growing one by appending copies a
+        # 1 GB take several times over: 2.6 s of its 4.3 s); a pipe, or a file that grows
+        # while it is read, appends
+        size = st.st_size if stat.S_ISREG(st.st_mode) else 0
+        buf = bytearray(size)
+        view = memoryview(buf)
+        got = 0
+        while got < size:
+            n = os.readv(fd, [view[got:got + READ_PIECE]])
+            if not n:
+                break
+            got += n
+            if progress is not None:
+                progress(got / size)
+        view.release()
+        if got < size:  # the file shrank while it was read
+            del buf[got:]
         while True:
             chunk = os.read(fd, min(1 << 20, max_bytes + 1 - len(buf)))
             if not chunk:

@@ -18,9 +18,10 @@ def _is_fbx(path) -> bool:
     return Path(path).suffix.lower() == ".fbx"
 
 
-def read_motion(path: str | os.PathLike) -> Motion:
+def read_motion(path: str | os.PathLike, *, progress=None) -> Motion:
     """A BVH or FBX file as a :class:`~splicer.model.Motion`: ``.fbx`` (any case) is read by
     Blender (:func:`splicer.fbx.read_fbx`), any other path as BVH (:func:`splicer.bvh.read_bvh`).
+    ``progress(fraction)``: a BVH's parse as it goes (:func:`~splicer.bvh.read_bvh`).
 
     Raises
     ------
@@ -33,7 +34,7 @@ def read_motion(path: str | os.PathLike) -> Motion:
         return read_fbx(path)
     from .bvh import read_bvh
 
-    return read_bvh(path)
+    return read_bvh(path, progress=progress)
 
 
 def write_motion(motion: Motion, path: str | os.PathLike, *, progress=None) -> None:

@@ -54,11 +54,13 @@ def load_inputs(body, hands, config=None, log: Log | None = None, *, body_marker
     log.progress("read", 0.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SplicerWarning)
-        bm = body if isinstance(body, Motion) else read_motion(body)
         sizes = [0 if isinstance(x, Motion) else _file_size(x) for x in (body, hands)]
-        if sum(sizes):
-            log.progress("read", sizes[0] / sum(sizes))  # the bar by bytes: the body read, the hands next
-        hm = hands if isinstance(hands, Motion) else read_motion(hands)
+        total = sum(sizes) or 1
+        # the bar by bytes: the body read and parsed, then the hands
+        bm = body if isinstance(body, Motion) else read_motion(
+            body, progress=lambda f: log.progress("read", f * sizes[0] / total))
+        hm = hands if isinstance(hands, Motion) else read_motion(
+            hands, progress=lambda f: log.progress("read", (sizes[0] + f * sizes[1]) / total))
     for w in caught:
         if issubclass(w.category, SplicerWarning):
             log.note(str(w.message))

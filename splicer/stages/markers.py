@@ -65,6 +65,7 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     log.progress(f"{side}: markers", 0.0)
     bm, hm = inputs.body, inputs.hands
     bmk = arm_markers(bm, rig.body.sides[side], rig.body.up)
+    log.progress(f"{side}: markers", bm.n_frames / (bm.n_frames + hm.n_frames))  # the bar by frames: body, then hands
     harm = rig.hands.sides[side]
     hand_only = is_hand_only(harm)
     if hand_only and not is_hand_only(rig.body.sides[side]):
@@ -72,6 +73,7 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
         # (from its root, with the same virtual forearm)
         bmk = hand_only_view(bm, rig.body.sides[side], bmk, forearm_joint=coincident_forearm(hm.skeleton, harm) is not None)
     hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
+    log.progress(f"{side}: markers", 1.0)
     # --- issue 14: real optical markers replace the virtual ones of the take that has them ---
     real = {}
     for take, traj, motion in (("body", inputs.body_markers, bm), ("hands", inputs.hands_markers, hm)):

@@ -31,6 +31,7 @@ socket is refused without reading.
 
 from __future__ import annotations
 
+import io
 import os
 import stat
 
@@ -122,9 +123,10 @@ def read_input(path: str | os.PathLike, *, max_bytes: int, error, what: str = "f
         size = st.st_size if stat.S_ISREG(st.st_mode) else 0
         buf = bytearray(size)
         view = memoryview(buf)
+        raw = io.FileIO(fd, "rb", closefd=False)  # readinto: no copy of each piece
         got = 0
         while got < size:
-            n = os.readv(fd, [view[got:got + READ_PIECE]])
+            n = raw.readinto(view[got:got + READ_PIECE])
             if not n:
                 break
             got += n

@@ -21,7 +21,7 @@ def _is_fbx(path) -> bool:
 def read_motion(path: str | os.PathLike, *, progress=None) -> Motion:
     """A BVH or FBX file as a :class:`~splicer.model.Motion`: ``.fbx`` (any case) is read by
     Blender (:func:`splicer.fbx.read_fbx`), any other path as BVH (:func:`splicer.bvh.read_bvh`).
-    ``progress(fraction)``: a BVH's parse as it goes (:func:`~splicer.bvh.read_bvh`).
+    ``progress(fraction)``: a BVH's reading and parsing as they go (:func:`~splicer.bvh.read_bvh`).
 
     Raises
     ------

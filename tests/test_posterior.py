@@ -94,6 +94,28 @@ def test_posterior_matches_enumeration(rng, pen, hw, temperature, radius):
     np.testing.assert_allclose(post.std, std, atol=1e-6)
 
 
+@pytest.mark.parametrize("pieces", [1, 7, 1000])
+def test_the_backward_sweep_in_pieces_gives_the_same_sums_and_moves_the_bar(rng, monkeypatch, pieces):
+    """The backward sweep carries one row of sums from piece to piece: 1, 7 or a piece per row
+    give the same expected path and spread to the bit; the bar rises to 1 after the last piece."""
+    from splicer.align import posterior
+
+    n, m = 300, 420
+    C = rng.uniform(0, 3, size=(n, m))
+    band = make_band(n, m, 60.0)
+    path = dtw(C, band).path
+    kw = dict(temperature=1.5, radius=40)
+    monkeypatch.setattr(posterior, "BACKWARD_PIECES", 1)
+    one = path_posterior(_matrix_cost(C), band, path, **kw)
+    monkeypatch.setattr(posterior, "BACKWARD_PIECES", pieces)
+    seen = []
+    got = path_posterior(_matrix_cost(C), band, path, progress=seen.append, **kw)
+    np.testing.assert_array_equal(got.mean, one.mean)
+    np.testing.assert_array_equal(got.std, one.std)
+    back = [f for f in seen if f > 0.6]
+    assert seen == sorted(seen) and 0.6 in seen and len(back) == min(pieces, n) and back[-1] == 1.0
+
+
 def test_tied_paths_worked_answer():
     """3 x 2, every cell free: five paths tie (V D, D V, V V H, V H V, H V V; weights 1/5).
 

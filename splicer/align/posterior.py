@@ -34,6 +34,10 @@ from .paths import path_median
 
 __all__ = ["Posterior", "expected_frames", "path_posterior", "tube_band"]
 
+#: :func:`path_posterior` runs its backward sweep in this many pieces of rows, with a progress
+#: update after each (on an hour-long pair the sweep takes seconds); the sums are the same.
+BACKWARD_PIECES = 16
+
 
 @dataclass(frozen=True, eq=False)
 class Posterior:
@@ -141,21 +145,20 @@ def _forward(C, lo, hi, off, r0, r1, inv_t, pen, hx, alpha, shift):
 
 
 @njit(cache=True)
-def _backward(C, lo, hi, off, r0, r1, inv_t, pen, hx, alpha, shift, s0, s1, s2):
+def _backward(C, lo, hi, off, r0, r1, a, b, inv_t, pen, hx, alpha, shift, s0, s1, s2, nxt):
     # beta (two rows): log of the summed weight of the completions from (i, j) to the end
     # cell (r1, hi[r1]), that cell's cost excluded.  The probabilities of the cells
     # (exp(alpha + beta - Z)) and of the diagonal steps are added up per anti-diagonal
     # d = i + j (a step (i-1, j-1) -> (i, j) crosses d = i + j - 1 at row i - 0.5):
     # s0[d] total (1 up to rounding), s1[d] sum of p * row, s2[d] sum of p * row^2.
+    # Rows a down to b (r1 >= a >= b >= r0), in pieces: nxt holds beta of row a + 1 (all -inf
+    # when a == r1; length: the widest row + 1) and is left holding row b's.
     ninf = -np.inf
     p = pen * inv_t
-    W = 0
-    for i in range(r0, r1 + 1):
-        W = max(W, hi[i] - lo[i] + 1)
-    nxt = np.full(W + 1, ninf)
+    W = nxt.shape[0] - 1
     cur = np.full(W + 1, ninf)
     Z = alpha[off[r1] + hi[r1] - lo[r1]] + shift[r1]
-    for i in range(r1, r0 - 1, -1):
+    for i in range(a, b - 1, -1):
         L, H, o = lo[i], hi[i], off[i]
         w = H - L + 1
         for k in range(w - 1, -1, -1):
@@ -253,7 +256,8 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
     step_penalty, horizontal_weight : float
         The pass's own (:func:`splicer.align.dtw.dtw`).
     progress : callable, optional
-        ``progress(fraction)`` as the tube's costs are computed (most of the time).
+        ``progress(fraction)`` as the tube's costs are computed (up to 0.5), after the forward
+        sweep (0.6) and after each piece of the backward sweep (up to 1.0).
 
     Returns
     -------
@@ -280,17 +284,24 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
             w = widths[i0 + r]
             C[off[i0 + r]:off[i0 + r] + w] = block[r, :w]
         if progress is not None:
-            progress(0.9 * (i1 - r0) / (r1 + 1 - r0))
+            progress(0.5 * (i1 - r0) / (r1 + 1 - r0))
     alpha = np.empty(C.shape[0], np.float32)
     shift = np.zeros(band.n)
     inv_t = 1.0 / float(temperature)
     hx = float(horizontal_weight) - 1.0
     _forward(C, tube.lo, tube.hi, off, r0, r1, inv_t, float(step_penalty), hx, alpha, shift)
     if progress is not None:
-        progress(0.95)
+        progress(0.6)
     nd = band.n + band.m
     s0, s1, s2 = np.zeros(nd), np.zeros(nd), np.zeros(nd)
-    _backward(C, tube.lo, tube.hi, off, r0, r1, inv_t, float(step_penalty), hx, alpha, shift, s0, s1, s2)
+    nxt = np.full(int(widths[r0:r1 + 1].max()) + 1, -np.inf)
+    step = -(-(r1 + 1 - r0) // BACKWARD_PIECES)  # rows per piece (the backward sweep takes seconds on an hour)
+    for a in range(r1, r0 - 1, -step):
+        b = max(a - step + 1, r0)
+        _backward(C, tube.lo, tube.hi, off, r0, r1, a, b, inv_t, float(step_penalty), hx, alpha, shift,
+                  s0, s1, s2, nxt)
+        if progress is not None:
+            progress(0.6 + 0.4 * (r1 + 1 - b) / (r1 + 1 - r0))
     mean, std = _rows_from_diagonals(s0, s1, s2, int(path[0, 0] + path[0, 1]), int(path[-1, 0] + path[-1, 1]), band.n)
     return Posterior(mean, std, float(temperature), radius)
 

@@ -322,7 +322,10 @@ def main(argv=None) -> int:
         print(f"splice-batch: error: {e}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
+        from .cli import _forget_caught_interrupt
+
         print("splice-batch: interrupted; finished pairs are kept and will not be run again", file=sys.stderr)
+        _forget_caught_interrupt()
         return 130
     bad = [r for r in rows if r["status"] in ("failed", "refused")]
     note(f"{len(rows) - len(bad)} of {len(rows)} pairs done in {time.perf_counter() - t0:.1f} s; "

@@ -223,6 +223,18 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+def _forget_caught_interrupt() -> None:
+    """Call where a command has caught Ctrl-C's KeyboardInterrupt and reports it itself.
+
+    CPython remembers a KeyboardInterrupt that left code run by ``exec`` of a string (dataclasses,
+    namedtuples and numba build functions that way), and under ``python -m`` kills the process
+    with SIGINT when it exits, even after the command caught the interrupt and returned 130: the
+    caller then sees a signal death after the command's own message.  Running an empty string the
+    same way clears that record.
+    """
+    exec("None", {})
+
+
 def _act_on_lost_signal() -> None:
     """Raise for a signal whose exception was swallowed (``_RECEIVED`` without the exception seen)."""
     if _RECEIVED:
@@ -379,6 +391,7 @@ def main(argv=None) -> int:
         else:
             what = "nothing was written"
         print(f"splice: interrupted ({name}); {what}", file=sys.stderr)
+        _forget_caught_interrupt()
         return 128 + int(signum)
     finally:
         for sig, handler in old_handlers.items():

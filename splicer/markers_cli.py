@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import _band_text, _Parser
+from .cli import _band_text, _forget_caught_interrupt, _Parser
 from .errors import SplicerError
 from .io.atomic import write_text_atomic
 
@@ -286,6 +286,7 @@ def main(argv=None) -> int:
         return 1
     except KeyboardInterrupt:
         print("splice-markers: interrupted; nothing was written", file=sys.stderr)
+        _forget_caught_interrupt()
         return 130
     if not args.quiet:
         rep = res.report

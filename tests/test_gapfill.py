@@ -1,4 +1,4 @@
-"""Gap filling: rigid fill is exact for a rigid cluster; cubic and constant-velocity fills; reports."""
+"""Gap filling: rigid fill is exact for a rigid cluster; pattern, cubic and constant-velocity fills; reports."""
 
 import numpy as np
 import pytest
@@ -81,14 +81,56 @@ def test_end_gaps_constant_velocity_and_long_gap_warning():
     assert "0.5 s limit" in out.warnings[0]
 
 
-def test_too_few_donors_falls_back_to_cubic(rng):
+def test_too_few_donors_for_a_rigid_fit_follow_the_pattern(rng):
     pts = _rigid_cluster(rng, k=4)
     holed = pts.copy()
     holed[10:15, 0] = np.nan
     holed[12, 3] = np.nan  # D hidden during A's gap: only B and C are donors, for either
     holed[20, 3] = np.nan  # D hidden alone: A, B, C carry it
     out = fill_gaps(Trajectories(tuple("ABCD"), holed, 100.0, 1, "mm", "c"), {"s": range(4)})
-    assert [(f.label, f.method) for f in out.fills] == [("A", "cubic"), ("D", "cubic"), ("D", "rigid")]
+    assert [(f.label, f.method, set(f.donors)) for f in out.fills] == [
+        ("A", "pattern", {"B", "C"}), ("D", "pattern", {"B", "C"}), ("D", "rigid", {"A", "B", "C"})]
+    assert out.fills[0].describe() == "A: frames 11-15 (0.05 s) by pattern"
+
+
+def test_pattern_fill_worked_answer():
+    """The marker is its donors' path plus an offset moving linearly across the gap."""
+    t = np.arange(12, dtype=float)
+    donor1 = np.stack([np.sin(t), t**2, 0 * t], axis=1)  # any path
+    donor2 = donor1 + [0.0, 0.0, 10.0]
+    marker = donor1 + np.stack([1.0 + 0.5 * t, 0 * t, 5 + 0 * t], axis=1)  # offset from donor1: linear in time
+    pts = np.stack([marker, donor1, donor2], axis=1)
+    holed = pts.copy()
+    holed[4:8, 0] = np.nan  # interior: offsets at rows 3 and 8 interpolated
+    holed[10:, 0] = np.nan  # at the end: the offset at row 9 held
+    out = fill_gaps(Trajectories(("M", "D1", "D2"), holed, 10.0, 1, "mm", "p"), {"hand": [0, 1, 2]}, columns=[0])
+    got = out.trajectories.points[:, 0]
+    np.testing.assert_allclose(got[:10], marker[:10], atol=1e-12)  # linear offsets are reproduced exactly
+    np.testing.assert_allclose(got[10:], donor1[10:] + [1.0 + 0.5 * 9, 0.0, 5.0], atol=1e-12)  # held offset
+    assert [(f.start, f.stop, f.method, f.donors) for f in out.fills] == [(4, 8, "pattern", ("D1", "D2")),
+                                                                          (10, 12, "pattern", ("D1", "D2"))]
+
+
+def test_pattern_fill_uses_the_two_nearest_donors():
+    t = np.arange(10, dtype=float)[:, None]
+    path = np.hstack([t, t**2, 0 * t])
+    offs = [[0, 0, 0], [1, 0, 0], [0, 100, 0], [0, 0, 2]]  # M, then donors at 100, 1 and 2 units
+    pts = np.stack([path + o for o in offs], axis=1)
+    pts[:, 2, 0] += np.sin(t[:, 0])  # the far donor wobbles: it must not be used
+    pts[:, 3, 2] += 0.1 * t[:, 0] ** 2  # the second-nearest bends: averaged with the nearest
+    holed = pts.copy()
+    holed[3:6, 0] = np.nan
+    out = fill_gaps(Trajectories(("M", "A", "FAR", "B"), holed, 10.0, 1, "mm", "p"), {"s": [0, 1, 2]}, columns=[0])
+    assert out.fills[0].donors == ("A", "FAR")  # only segment mates donate: B is in no segment with M
+    out = fill_gaps(Trajectories(("M", "A", "FAR", "B"), holed, 10.0, 1, "mm", "p"), {"s": [0, 1, 2, 3]}, columns=[0])
+    f = out.fills[0]
+    assert (f.method, f.donors) == ("rigid", ("A", "FAR", "B"))  # three donors: a rigid fit instead
+    out = fill_gaps(Trajectories(("M", "A", "FAR", "B"), holed, 10.0, 1, "mm", "p"), {"s": [0, 1, 2, 3]}, columns=[0],
+                    min_donors=4)
+    f = out.fills[0]
+    assert (f.method, f.donors) == ("pattern", ("A", "B"))
+    bend = 0.1 * t[3:6, 0] ** 2 - (0.1 * 4 + (0.1 * 36 - 0.1 * 4) * np.array([1, 2, 3]) / 4)  # B's bend less its line
+    np.testing.assert_allclose(out.trajectories.points[3:6, 0], path[3:6] + np.outer(bend / 2, [0, 0, 1]), atol=1e-12)
 
 
 def test_never_seen_is_reported():

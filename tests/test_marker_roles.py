@@ -93,7 +93,7 @@ def test_shared_vicon_capture(shared_motions):
     expected = {(t.labels[c], a) for c in role_cols
                 for a in np.flatnonzero(np.diff(np.concatenate([[0], t.missing[:, c].astype(int)])) == 1)}
     assert filled == expected and len(filled) == 13
-    assert {f.method for f in arm.gaps.fills} == {"rigid", "cubic"}
+    assert {f.method for f in arm.gaps.fills} == {"rigid", "pattern"}
     seen = ~t.missing[:, role_cols]
     np.testing.assert_array_equal(arm.gaps.trajectories.points[:, role_cols][seen], t.points[:, role_cols][seen])
     rep = arm.report(t)

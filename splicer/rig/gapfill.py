@@ -8,9 +8,16 @@ Each run of missing samples of a marker is filled by the first method that appli
   frame before the gap to each gap frame places the marker as it sat before; the same from
   the first frame after; the two are blended linearly across the gap.  Exact for a rigid
   cluster.  At the ends of the take, only the seen side is used.
-* ``cubic``: interior gaps without enough donors: a cubic spline through up to four seen
+* ``pattern``: fewer donors than a rigid fit needs, but one or two of the segment's other
+  markers seen throughout the gap and at its edges: the marker follows each donor's path, its
+  offset from the donor moving linearly from the offset before the gap to the one after (held
+  at an end of the take); two donors' results are averaged.  The error is the change in the
+  two markers' offset during the gap (the segment turning), not the marker's own motion: on
+  the protocol's markers, the cubic fills it replaced were off by 12 mm (median RMS) and up to
+  690 mm on 0.5-1 s gaps; see README *Optical markers*.
+* ``cubic``: interior gaps without a donor: a cubic spline through up to four seen
   samples on each side (linear when only one on a side).
-* ``constant velocity``: gaps at the start or end without enough donors: the marker moves
+* ``constant velocity``: gaps at the start or end without a donor: the marker moves
   on at the mean velocity of its last (first) three seen frames.
 
 Every filled range is returned as a :class:`Fill`; a gap longer than ``max_gap_s`` seconds is
@@ -42,7 +49,7 @@ class Fill:
         The file's frame number of row 0 (to name frames as the file does).
     fps : float
     method : str
-        ``"rigid"``, ``"cubic"`` or ``"constant velocity"``.
+        ``"rigid"``, ``"pattern"``, ``"cubic"`` or ``"constant velocity"``.
     donors : tuple of str
         Markers the rigid fit used.
     too_long : bool
@@ -133,6 +140,21 @@ def _carry(pts: np.ndarray, c: int, donors: list[int], ref: int, frames: np.ndar
     return np.einsum("gij,j->gi", r, pts[ref, c]) + t
 
 
+def _pattern(pts: np.ndarray, c: int, donors: list[int], refs: list[int], gap: np.ndarray) -> np.ndarray:
+    """Marker ``c`` at ``gap``: each donor's path plus the offset from it, interpolated linearly
+    between the edge rows ``refs`` (held when only one); averaged over the donors."""
+    out = np.zeros((len(gap), 3))
+    for d in donors:
+        off = [pts[r, c] - pts[r, d] for r in refs]
+        if len(off) == 2:
+            w = ((gap - refs[0]) / (refs[1] - refs[0]))[:, None]
+            offset = (1 - w) * off[0] + w * off[1]
+        else:
+            offset = off[0]
+        out += pts[gap, d] + offset
+    return out / len(donors)
+
+
 def _velocity(x: np.ndarray, seen: np.ndarray, edge: int, step: int) -> np.ndarray:
     """Mean velocity (units per row) over up to three seen rows inward from ``edge``."""
     k = edge
@@ -210,6 +232,9 @@ def fill_gaps(traj: Trajectories, segments: dict | None = None, *, columns=None,
                 else:
                     val = carried[0]
                 method, used = "rigid", tuple(traj.labels[d] for d in donors)
+            elif donors:
+                near = sorted(donors, key=lambda d: float(np.linalg.norm(traj.points[refs, d] - x[refs], axis=1).mean()))[:2]
+                val, method, used = _pattern(traj.points, c, near, refs, gap), "pattern", tuple(traj.labels[d] for d in near)
             elif a > 0 and b < n:
                 val, method, used = _cubic(x, seen, a, b), "cubic", ()
             else:

@@ -471,3 +471,20 @@ def test_an_interrupt_inside_exec_code_exits_130_under_python_m(tmp_path, module
                        env={**ENV, "PYTHONPATH": f"{tmp_path}{os.pathsep}{ROOT}"}, timeout=300)
     assert (p.returncode, p.stderr) == (130, message + "\n")
     assert sorted(f.name for f in tmp_path.iterdir()) == ["interrupted_run.py"]
+
+
+@pytest.mark.parametrize("suffix", [".c3d", ".TRC"])
+def test_a_marker_file_given_as_a_take_says_where_it_goes(tmp_path, suffix):
+    """Fault: the shared C3D given as the hands take was refused as "binary data (NUL byte):
+    expected a text BVH file", which does not say that splice takes markers, elsewhere."""
+    body, hands = small_files(tmp_path)
+    markers = tmp_path / f"hands{suffix}"
+    markers.write_bytes(b"\x02\x50\x00binary")
+    out = tmp_path / "out.bvh"
+    for argv in ([body, markers, "-o", out], [markers, hands, "-o", out]):
+        status, _, err = run_cli(argv)
+        assert status == 1 and not out.exists()
+        assert one_error_line(err) == (f"splice: error: {markers}: optical markers ({suffix[1:].upper()}), not a motion: "
+                                       "give the take's BVH or FBX here, and the markers with --hands-markers or "
+                                       "--body-markers (hands_markers= or body_markers= in Python)")
+    assert markers.read_bytes() == b"\x02\x50\x00binary"

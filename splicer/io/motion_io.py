@@ -7,9 +7,14 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..errors import SplicerError
 from ..model.motion import Motion
 
 __all__ = ["read_motion", "write_motion"]
+
+
+#: Marker-trajectory files (:mod:`splicer.io.trajectories`): never a take's motion.
+_MARKER_SUFFIXES = (".c3d", ".trc")
 
 
 def _is_fbx(path) -> bool:
@@ -26,8 +31,14 @@ def read_motion(path: str | os.PathLike, *, progress=None) -> Motion:
     Raises
     ------
     SplicerError
-        What the reader raises (for FBX without ``bpy``: one line saying how to install it).
+        What the reader raises (for FBX without ``bpy``: one line saying how to install it); a
+        marker file (``.c3d``, ``.trc``) given as a take: one line saying where it goes instead.
     """
+    suffix = Path(path).suffix.lower()
+    if suffix in _MARKER_SUFFIXES:
+        raise SplicerError(f"{path}: optical markers ({suffix[1:].upper()}), not a motion: give the take's BVH or FBX "
+                           "here, and the markers with --hands-markers or --body-markers (hands_markers= or "
+                           "body_markers= in Python)")
     if _is_fbx(path):
         from .fbx import read_fbx
 

@@ -51,7 +51,7 @@ class Fill:
     method : str
         ``"rigid"``, ``"pattern"``, ``"cubic"`` or ``"constant velocity"``.
     donors : tuple of str
-        Markers the rigid fit used.
+        Markers the rigid fit used, or the pattern followed.
     too_long : bool
         Longer than the stated limit.
     """
@@ -140,18 +140,21 @@ def _carry(pts: np.ndarray, c: int, donors: list[int], ref: int, frames: np.ndar
     return np.einsum("gij,j->gi", r, pts[ref, c]) + t
 
 
+def _across(at_edges: list, gap: np.ndarray, refs: list[int]):
+    """What ``at_edges`` holds for each edge row in ``refs``, carried across ``gap``: blended
+    linearly from the row before the gap to the row after it, or the one edge's alone."""
+    if len(refs) == 1:
+        return at_edges[0]
+    w = ((gap - refs[0]) / (refs[1] - refs[0]))[:, None]
+    return (1 - w) * at_edges[0] + w * at_edges[1]
+
+
 def _pattern(pts: np.ndarray, c: int, donors: list[int], refs: list[int], gap: np.ndarray) -> np.ndarray:
     """Marker ``c`` at ``gap``: each donor's path plus the offset from it, interpolated linearly
     between the edge rows ``refs`` (held when only one); averaged over the donors."""
     out = np.zeros((len(gap), 3))
     for d in donors:
-        off = [pts[r, c] - pts[r, d] for r in refs]
-        if len(off) == 2:
-            w = ((gap - refs[0]) / (refs[1] - refs[0]))[:, None]
-            offset = (1 - w) * off[0] + w * off[1]
-        else:
-            offset = off[0]
-        out += pts[gap, d] + offset
+        out += pts[gap, d] + _across([pts[r, c] - pts[r, d] for r in refs], gap, refs)
     return out / len(donors)
 
 
@@ -225,16 +228,13 @@ def fill_gaps(traj: Trajectories, segments: dict | None = None, *, columns=None,
             span = np.concatenate([gap, refs])
             donors = [d for d in mates if seen_all[span, d].all()]
             if len(donors) >= min_donors:
-                carried = [_carry(traj.points, c, donors, r, gap) for r in refs]
-                if len(carried) == 2:
-                    w = ((gap - (a - 1)) / (b - (a - 1)))[:, None]
-                    val = (1 - w) * carried[0] + w * carried[1]
-                else:
-                    val = carried[0]
+                val = _across([_carry(traj.points, c, donors, r, gap) for r in refs], gap, refs)
                 method, used = "rigid", tuple(traj.labels[d] for d in donors)
-            elif donors:
-                near = sorted(donors, key=lambda d: float(np.linalg.norm(traj.points[refs, d] - x[refs], axis=1).mean()))[:2]
-                val, method, used = _pattern(traj.points, c, near, refs, gap), "pattern", tuple(traj.labels[d] for d in near)
+            elif donors:  # the two nearest at the gap's edges
+                near = sorted(donors, key=lambda d: float(np.linalg.norm(traj.points[refs, d] - x[refs],
+                                                                         axis=1).mean()))
+                val = _pattern(traj.points, c, near[:2], refs, gap)
+                method, used = "pattern", tuple(traj.labels[d] for d in near[:2])
             elif a > 0 and b < n:
                 val, method, used = _cubic(x, seen, a, b), "cubic", ()
             else:

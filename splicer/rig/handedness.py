@@ -10,8 +10,8 @@ DIP joints of index to pinky of a proper right hand bend mostly forward (toward 
 those of a left hand (or a mirrored right hand) mostly backward.  Frames where a finger
 bends by at least :data:`MIN_BEND_DEG` (PIP + DIP) vote (of a long take, :data:`VOTE_FRAMES`
 frames evenly spaced); a side is decided when at least :data:`DECIDE_SHARE` of the votes
-agree.  Without such motion, a weak static cue is used: the thumb's base sits on the palm side of the knuckle plane (by at least a tenth of the hand
-length) in most rigs.
+agree.  Without such motion, a weak static cue is used: the thumb's base sits on the palm
+side of the knuckle plane (by at least a tenth of the hand length) in most rigs.
 
 :func:`mirror_motion` reflects a whole motion through a coordinate plane: offsets and
 positions flip one coordinate, rotations ``R -> M R M`` (the rotation about the plane's

@@ -212,3 +212,24 @@ def test_euler_channels_unwrap_and_follow_a_reference():
                                [[530, 0, 0], [-170, 0, 0], [210, 360, 0]], atol=1e-9)
     # input need not be normalised
     np.testing.assert_allclose(euler_channels_deg(3 * q, "XYZ"), euler_channels_deg(q, "XYZ"), atol=1e-9)
+
+
+def test_euler_from_quat_gives_the_same_bits_wherever_its_arrays_lie():
+    # numpy 1.26 (AVX-512) computed arctan2 of strided columns with last-bit differences that
+    # depended on the heap's state: the same rotations gave Euler angles 1 ULP apart from one call
+    # to the next (a CI flake in test_separate).  Allocations of varying size between calls move
+    # the arrays euler_from_quat allocates; every call must give the first call's bits.
+    from splicer.model.rotations import atan2_stable, euler_from_quat, quat_normalize
+    q = quat_normalize(np.random.default_rng(3).normal(size=(1351, 4)))
+    first = euler_from_quat(q, "ZXY")
+    junk = []
+    for k in range(300):
+        junk.append(np.empty(1 + (k * 37) % 257))
+        np.testing.assert_array_equal(euler_from_quat(q, "ZXY"), first)
+    cols = np.random.default_rng(4).normal(size=(1351, 9))
+    ref = atan2_stable(cols[:, 3].copy(), cols[:, 4].copy())
+    for off in range(13):
+        buf = np.empty(cols.size + off)
+        moved = buf[off:].reshape(cols.shape)
+        moved[:] = cols
+        np.testing.assert_array_equal(atan2_stable(moved[:, 3], moved[:, 4]), ref)

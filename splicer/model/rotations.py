@@ -39,7 +39,23 @@ __all__ = [
     "quat_median",
     "quat_between",
     "yaw_quat_deg",
+    "atan2_stable",
 ]
+
+
+def atan2_stable(y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``np.arctan2(y, x)`` in radians, the same bits wherever ``y`` and ``x`` lie in memory.
+
+    numpy 1.26 on AVX-512 machines computes ``arctan2`` of strided inputs (a column of a
+    larger array) with results that differ in the last bit depending on the arrays'
+    alignment, so the same angles came out 1 ULP apart from one call to the next (seen as a
+    test comparing two identical computations exactly).  Contiguous inputs take one code
+    path whatever the alignment; this passes contiguous copies.
+
+    >>> float(atan2_stable(np.array([1.0]), np.array([1.0]))[0]) == np.pi / 4
+    True
+    """
+    return np.arctan2(np.ascontiguousarray(y, dtype=np.float64), np.ascontiguousarray(x, dtype=np.float64))
 
 
 def _flat(q: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -111,8 +127,8 @@ def euler_from_quat(q: np.ndarray, order: str) -> np.ndarray:
     sb = np.clip(s * m[..., i, k], -1.0, 1.0)
     b = np.arcsin(sb)
     locked = np.abs(sb) > 1.0 - 1e-12
-    a = np.where(locked, np.arctan2(s * m[..., k, j], m[..., j, j]), np.arctan2(-s * m[..., j, k], m[..., k, k]))
-    c = np.where(locked, 0.0, np.arctan2(-s * m[..., i, j], m[..., i, i]))
+    a = np.where(locked, atan2_stable(s * m[..., k, j], m[..., j, j]), atan2_stable(-s * m[..., j, k], m[..., k, k]))
+    c = np.where(locked, 0.0, atan2_stable(-s * m[..., i, j], m[..., i, i]))
     return np.degrees(np.stack([a, b, c], axis=-1)) + 0.0  # + 0.0: no negative zeros
 
 

@@ -22,7 +22,7 @@ from ..model.kinematics import global_transforms, rest_positions
 from ..model.motion import Motion
 from .handgeom import HAND_PER_FOREARM, finger_anchors
 from .roles import ArmRoles
-from ..model.rotations import quat_rotate
+from ..model.rotations import atan2_stable, quat_rotate
 
 __all__ = ["Markers", "arm_markers", "root_heading"]
 
@@ -86,7 +86,7 @@ def root_heading(motion: Motion, up: int) -> np.ndarray:
     axes = np.stack([quat_rotate(rot[:, 0], e) for e in np.eye(3)], axis=1)  # (T, 3 root axes, 3 world)
     local_up = int(np.argmax(np.abs(axes[:, :, up].mean(axis=0))))
     v = axes[:, (local_up + 1) % 3]
-    return np.unwrap(np.arctan2(v[:, b], v[:, a]))
+    return np.unwrap(atan2_stable(v[:, b], v[:, a]))
 
 
 def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:

@@ -44,3 +44,17 @@ def d2_reference(body: PalmFeatures, hands: PalmFeatures, i: int, j: int) -> flo
 def position_reference(body: PhaseFeatures, hands: PhaseFeatures, i: int, j: int) -> float:
     """The position term of one cell: the mean squared difference of the two frames' features."""
     return float(np.mean((body.position[i] - hands.position[j]) ** 2))
+
+
+def sgn_branching(x: float, eps: float, ramp: float) -> float:
+    """The dead-zoned sign of D1 as first written, with branches (the kernel's select form must
+    give these values bit for bit)."""
+    if x > eps:
+        if ramp > 0.0 and x < eps + ramp:
+            return (x - eps) / ramp
+        return 1.0
+    if x < -eps:
+        if ramp > 0.0 and x > -eps - ramp:
+            return (x + eps) / ramp
+        return -1.0
+    return 0.0

@@ -5,7 +5,7 @@ import pytest
 
 from splicer.align.dtw import make_band
 from splicer.rig.markers import Markers
-from references import d1_reference, d2_reference, position_reference
+from references import d1_reference, d2_reference, position_reference, sgn_branching
 from splicer.align.costs import (d1_cost, d2_cost, kgp_theta, palm_features, phase_features, position_features,
                                  window_points)
 from splicer.align.noise import matched_smoothing, sign_change_rate, swing_rate
@@ -31,6 +31,20 @@ def test_d1_kernel_matches_reference(rng, theta, up, ramp):
             j = band.lo[i] + c
             assert rows[i, c] == pytest.approx(d1_reference(body, hands, i, j, theta), abs=1e-9), (i, j)
         assert np.all(np.isinf(rows[i, band.hi[i] - band.lo[i] + 1:]))
+
+
+@pytest.mark.parametrize("eps, ramp", [(0.01, 0.0), (0.01, 0.03), (0.2, 0.5), (0.0, 0.0), (0.0, 0.1)])
+def test_dead_zoned_sign_is_the_branching_form_bit_for_bit(rng, eps, ramp):
+    from splicer.align.costs import _signs
+    edges = [eps, eps + ramp, np.nextafter(eps, 1), np.nextafter(eps, -1), np.nextafter(eps + ramp, 0),
+             np.nextafter(eps + ramp, 2), 0.5 * eps + 0.5 * (eps + ramp), 1e-300, 0.0, 3.0, np.inf]
+    x = np.array(edges + [-e for e in edges] + [np.nan, -0.0] + list(rng.normal(scale=2 * (eps + ramp) + 1e-3, size=300)))
+    x = x[: x.size // 3 * 3].reshape(-1, 1, 3)
+    out = np.empty_like(x)
+    _signs(x, eps, ramp, out)
+    want = np.array([sgn_branching(float(v), eps, ramp) for v in x.ravel()]).reshape(x.shape)
+    assert np.array_equal(out, want)
+    assert np.array_equal(out == 0, want == 0)  # the same zeros (a -0.0 squares to the same cost)
 
 
 def test_d2_kernel_matches_reference(rng):

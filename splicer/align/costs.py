@@ -64,6 +64,10 @@ class PhaseFeatures:
     window : np.ndarray [shape=(T, 2, 20)]
         Horizontal marker coordinates (axes ``a, b`` of :func:`horizontal_axes`) of the
         5-frame window around each frame, mean removed, for theta.
+
+    :func:`phase_features` lays ``vel``, ``acc`` and ``window`` out in memory with the frames
+    last (they are ``(T, ...)`` views of ``(..., T)`` arrays): D1's kernel reads one coordinate
+    of a row's whole band of hands frames at a time.
     heading : np.ndarray [shape=(T,)]
         Root heading, radians.
     up : int
@@ -212,8 +216,9 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
     rms_v = float(np.sqrt(np.mean(vel**2))) if vel.size else 0.0
     rms_a = float(np.sqrt(np.mean(acc**2))) if acc.size else 0.0
     win = window_points(markers.points, markers.up)
+    vel, acc, win = (np.moveaxis(_frames_last(x), -1, 0) for x in (vel, acc, win))  # (T, ...) views, frames last in memory
     return PhaseFeatures(
-        np.ascontiguousarray(vel), np.ascontiguousarray(acc), dead_zone * rms_v, dead_zone * rms_a, win,
+        vel, acc, dead_zone * rms_v, dead_zone * rms_a, win,
         np.array(markers.heading, dtype=np.float64), markers.up,  # a writable copy: one compiled D1 kernel, not two
         sign_ramp * rms_v, sign_ramp * rms_a, position_features(markers) if position else None,
     )
@@ -242,52 +247,75 @@ def _signs(x, eps, ramp, out):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _d1_rows(i0, i1, lo, hi, width, sv, sa, wb, hb, svu, sau, vh, ah, evh, eah, rvh, rah, wh, hh, up, mode, out):
-    # sv, sa: body velocity / acceleration signs (T, K, 3); svu, sau: the hands' signs along the up
-    # axis (T, K), which no turn changes; vh, ah: raw hands derivatives (turned per cell);
-    # evh, eah: the hands' dead zones; rvh, rah: their sign ramps.
+    # Frames last everywhere: sv, sa (K, 3, T): body velocity / acceleration signs; svu, sau (K, T):
+    # the hands' signs along the up axis, which no turn changes; vh, ah (K, 3, T): the hands' raw
+    # derivatives (turned per cell); wb, wh (2, N, T): the theta windows; evh, eah: the hands'
+    # dead zones; rvh, rah: their sign ramps.  Each row works through its band one term at a time
+    # over all its cells (unit-stride loops the compiler vectorises); every cell adds its terms
+    # in the same order as a cell-by-cell loop would, so the costs are the same bit for bit.
     # cos/sin of theta come straight from the KGP sums: theta = atan2(num, den).
     a = (up + 1) % 3
     b = (up + 2) % 3
-    K = sv.shape[1]
-    N = wb.shape[2]
+    K = sv.shape[0]
+    N = wb.shape[1]
     for r in prange(i1 - i0):
         i = i0 + r
-        for c in range(hi[i] - lo[i] + 1):
-            j = lo[i] + c
-            if mode == 0:
-                num = 0.0
-                den = 0.0
-                for k in range(N):
-                    num += wb[i, 1, k] * wh[j, 0, k] - wb[i, 0, k] * wh[j, 1, k]
-                    den += wb[i, 0, k] * wh[j, 0, k] + wb[i, 1, k] * wh[j, 1, k]
-                norm = np.sqrt(num * num + den * den)
-                if norm > 0.0:
-                    cs = den / norm
-                    sn = num / norm
-                else:
-                    cs = 1.0
-                    sn = 0.0
-            else:
-                th = hb[i] - hh[j]
-                cs = np.cos(th)
-                sn = np.sin(th)
-            cost = 0.0
-            for m in range(K):
-                d = sv[i, m, up] - svu[j, m]
+        l = lo[i]
+        w = hi[i] - l + 1
+        cs = np.empty(w)
+        sn = np.empty(w)
+        o = out[r]
+        if mode == 0:
+            num = np.zeros(w)
+            den = np.zeros(w)
+            for k in range(N):
+                b0 = wb[0, k, i]
+                b1 = wb[1, k, i]
+                h0 = wh[0, k]
+                h1 = wh[1, k]
+                for c in range(w):
+                    num[c] += b1 * h0[l + c] - b0 * h1[l + c]
+                    den[c] += b0 * h0[l + c] + b1 * h1[l + c]
+            for c in range(w):
+                norm = np.sqrt(num[c] * num[c] + den[c] * den[c])
+                cs[c] = den[c] / norm if norm > 0.0 else 1.0
+                sn[c] = num[c] / norm if norm > 0.0 else 0.0
+        else:
+            for c in range(w):
+                th = hb[i] - hh[l + c]
+                cs[c] = np.cos(th)
+                sn[c] = np.sin(th)
+        for c in range(w):
+            o[c] = 0.0
+        for m in range(K):
+            s1, s2, s3, s4, s5, s6 = sv[m, up, i], sa[m, up, i], sv[m, a, i], sv[m, b, i], sa[m, a, i], sa[m, b, i]
+            va, vb, aa, ab, su, au = vh[m, a], vh[m, b], ah[m, a], ah[m, b], svu[m], sau[m]
+            for c in range(w):
+                j = l + c
+                co = cs[c]
+                si = sn[c]
+                cost = o[c]
+                d = s1 - su[j]
                 cost += d * d
-                d = sa[i, m, up] - sau[j, m]
+                d = s2 - au[j]
                 cost += d * d
-                d = sv[i, m, a] - _sgn(cs * vh[j, m, a] - sn * vh[j, m, b], evh, rvh)
+                d = s3 - _sgn(co * va[j] - si * vb[j], evh, rvh)
                 cost += d * d
-                d = sv[i, m, b] - _sgn(sn * vh[j, m, a] + cs * vh[j, m, b], evh, rvh)
+                d = s4 - _sgn(si * va[j] + co * vb[j], evh, rvh)
                 cost += d * d
-                d = sa[i, m, a] - _sgn(cs * ah[j, m, a] - sn * ah[j, m, b], eah, rah)
+                d = s5 - _sgn(co * aa[j] - si * ab[j], eah, rah)
                 cost += d * d
-                d = sa[i, m, b] - _sgn(sn * ah[j, m, a] + cs * ah[j, m, b], eah, rah)
+                d = s6 - _sgn(si * aa[j] + co * ab[j], eah, rah)
                 cost += d * d
-            out[r, c] = cost
-        for c in range(hi[i] - lo[i] + 1, width):
-            out[r, c] = np.inf
+                o[c] = cost
+        for c in range(w, width):
+            o[c] = np.inf
+
+
+def _frames_last(x: np.ndarray) -> np.ndarray:
+    """``x`` (frames first) with its frames axis moved last, C-contiguous: a view when its memory
+    is laid out so already (as :func:`phase_features` leaves it), else a copy."""
+    return np.ascontiguousarray(np.moveaxis(x, 0, -1))
 
 
 def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window", position_weight: float = 0.0):
@@ -319,22 +347,23 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window",
         raise ValueError(f"position_weight must be >= 0 and finite, got {position_weight!r}")
     if w > 0.0 and (body.position is None or hands.position is None):
         raise ValueError("a position weight needs phase_features(..., position=True) on both takes")
-    sv = np.empty_like(body.vel)
-    sa = np.empty_like(body.acc)
-    _signs(body.vel, body.eps_vel, body.ramp_vel, sv)
-    _signs(body.acc, body.eps_acc, body.ramp_acc, sa)
-    # the hands' signs along the up axis, once per frame (C-contiguous in and out: one kernel specialisation)
+    # frames last (see _d1_rows), writable C arrays throughout: one compiled kernel
+    sv, sa = np.empty(body.vel.shape[1:] + body.vel.shape[:1]), np.empty(body.acc.shape[1:] + body.acc.shape[:1])
+    _signs(_frames_last(body.vel), body.eps_vel, body.ramp_vel, sv)
+    _signs(_frames_last(body.acc), body.eps_acc, body.ramp_acc, sa)
+    vh, ah, wb, wh = (_frames_last(x) for x in (hands.vel, hands.acc, body.window, hands.window))
+    # the hands' signs along the up axis, once per frame
     up = body.up
-    svu, sau = (np.empty(x.shape[:2] + (1,)) for x in (hands.vel, hands.acc))
-    _signs(np.ascontiguousarray(hands.vel[:, :, up:up + 1]), hands.eps_vel, hands.ramp_vel, svu)
-    _signs(np.ascontiguousarray(hands.acc[:, :, up:up + 1]), hands.eps_acc, hands.ramp_acc, sau)
-    svu, sau = svu[:, :, 0], sau[:, :, 0]
+    svu, sau = (np.empty((x.shape[0], 1, x.shape[2])) for x in (vh, ah))
+    _signs(np.ascontiguousarray(vh[:, up:up + 1]), hands.eps_vel, hands.ramp_vel, svu)
+    _signs(np.ascontiguousarray(ah[:, up:up + 1]), hands.eps_acc, hands.ramp_acc, sau)
+    svu, sau = svu[:, 0], sau[:, 0]
 
     def cost(band, i0: int, i1: int) -> np.ndarray:
         width = band.max_row_width  # the engine wants every chunk padded to the widest row
         out = np.empty((i1 - i0, width))
-        _d1_rows(i0, i1, band.lo, band.hi, width, sv, sa, body.window, body.heading, svu, sau, hands.vel, hands.acc,
-                 hands.eps_vel, hands.eps_acc, hands.ramp_vel, hands.ramp_acc, hands.window, hands.heading,
+        _d1_rows(i0, i1, band.lo, band.hi, width, sv, sa, wb, body.heading, svu, sau, vh, ah,
+                 hands.eps_vel, hands.eps_acc, hands.ramp_vel, hands.ramp_acc, wh, hands.heading,
                  body.up, mode, out)
         if w > 0.0:
             _position_rows(i0, i1, band.lo, band.hi, body.position, hands.position, w, out)

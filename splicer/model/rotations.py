@@ -54,8 +54,11 @@ def atan2_stable(y: np.ndarray, x: np.ndarray) -> np.ndarray:
 
     >>> float(atan2_stable(np.array([1.0]), np.array([1.0]))[0]) == np.pi / 4
     True
+    >>> atan2_stable(np.float64(0.0), np.float64(-1.0)).shape  # one value stays one value
+    ()
     """
-    return np.arctan2(np.ascontiguousarray(y, dtype=np.float64), np.ascontiguousarray(x, dtype=np.float64))
+    # asarray(order="C"), not ascontiguousarray: the latter turns a 0-d array (one rotation) into shape (1,)
+    return np.arctan2(np.asarray(y, dtype=np.float64, order="C"), np.asarray(x, dtype=np.float64, order="C"))
 
 
 def _flat(q: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:

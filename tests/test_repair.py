@@ -293,3 +293,44 @@ def test_the_search_reports_its_progress_joint_by_joint(hands, joints):
     assert len(seen) == 2 * len(joints) and seen == sorted(seen) and seen[0] == 0.0 and seen[-1] < 1.0
     assert seen[len(joints)] == 0.5
     assert reps == repair_motion(hands, joints)[1]
+
+
+def test_a_turn_is_at_most_the_sum_of_its_euler_changes():
+    # the jump test skips the rotations of a joint whose Euler channels never change by the limit
+    # in sum between two frames (dropouts._steps_below); that relies on this bound, for every order
+    rng = np.random.default_rng(7)
+    for order in ("ZXY", "XYZ", "YZX", "ZYX", "XZY", "YXZ"):
+        a = rng.uniform(-180, 180, size=(2000, 3))
+        b = a + rng.normal(scale=rng.choice([0.1, 5.0, 40.0]), size=(2000, 3))
+        ang = quat_angle(quat_from_euler(a, order), quat_from_euler(b, order))
+        assert np.all(ang <= np.abs(b - a).sum(axis=1) + 1e-9)
+
+
+def test_steps_below_the_limit_worked_answers():
+    from splicer.rig.dropouts import _steps_below
+    ch = np.zeros((5, 4))
+    ch[:, 1] = [0, 10, 20, 30, 40]   # 10 degrees a frame about the first axis
+    ch[:, 2] = [0, 5, 0, 5, 0]       # and 5 about the second: at most 15 a frame
+    assert _steps_below(ch, [1, 2, 3], 15.1)
+    assert not _steps_below(ch, [1, 2, 3], 15.0)  # the sum reaches the limit: the full test decides
+    ch[2, 3] = np.nan
+    assert not _steps_below(ch, [1, 2, 3], 100.0)  # NaN: the full test decides
+    assert not _steps_below(ch, [1, 2], 100.0)    # not three rotation channels
+
+
+def test_the_jump_test_finds_the_same_spikes_with_and_without_the_shortcut(hands, joints, monkeypatch):
+    import splicer.rig.dropouts as D
+    ch = np.array(hands.channels)
+    sk = hands.skeleton
+    j = joints[len(joints) // 2]
+    cols = sk.rotation_columns(j)
+    ch[100:102, cols[0]] += 60.0   # a two-frame spike in one finger joint
+    spiky = Motion(sk, ch, hands.frame_time, hands.source)
+    with_shortcut = D.detect_problems(spiky, joints)
+    monkeypatch.setattr(D, "_steps_below", lambda *a: False)
+    without = D.detect_problems(spiky, joints)
+    assert with_shortcut.keys() == without.keys() and j in with_shortcut
+    for k in with_shortcut:
+        assert with_shortcut[k].keys() == without[k].keys()
+        for kind in with_shortcut[k]:
+            assert np.array_equal(with_shortcut[k][kind], without[k][kind])

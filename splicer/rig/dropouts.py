@@ -63,6 +63,21 @@ def _joint_columns(motion: Motion, j: int) -> list[int]:
     return list(range(o, o + len(motion.skeleton.channels[j])))
 
 
+def _steps_below(ch: np.ndarray, cols, lim_deg: float) -> bool:
+    """True when no frame-to-frame turn of the joint whose Euler channels are ``cols`` can reach
+    ``lim_deg``: the turn between two frames is at most the sum of its Euler angles' changes
+    (each factor of the product turns about one axis; the angle between rotations is a metric
+    that composition leaves unchanged), so a sum below the limit, with a margin far above the
+    rounding of the angle itself, settles the jump test without any quaternion (a 70-minute hand
+    take's finger joints, 4-8 s of the dropout scan)."""
+    if len(cols) != 3 or ch.shape[0] < 2:
+        return False
+    bound = np.zeros(ch.shape[0] - 1)
+    for c in cols:
+        bound += np.abs(np.diff(ch[:, c]))
+    return bool(np.all(bound < lim_deg * (1.0 - 1e-6)))  # False with NaN: the full test decides
+
+
 def _quats(motion: Motion, channels: np.ndarray, j: int) -> np.ndarray | None:
     """Local rotation of joint ``j`` from ``channels`` (T, 4), hemisphere-continuous; None without 3 rotation channels."""
     sk = motion.skeleton
@@ -144,6 +159,9 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         same = ~changes[:, k] & ok_rows[1:] & ok_rows[:-1]  # same[t]: frame t+1 repeats frame t
         if same.all() or not same.any():
             continue
+        long_runs = [(a, b) for a, b in _runs(same) if b - a + 2 >= min_len]  # frames a .. b + 1 identical
+        if not long_runs:  # repeats too short to be a dropout: the joint's steps are not needed
+            continue
         q = joint_quats(j)
         steps = quat_angle(q[1:], q[:-1]) if q is not None else np.abs(np.diff(ch[:, cols], axis=0)).max(axis=1)
         moving = steps[~same & ok_rows[1:] & ok_rows[:-1]]
@@ -153,10 +171,7 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         med = float(np.median(moving))
         others = (n_changing - changes[:, k]) > 0  # another checked joint changes at that step
         mask = np.zeros(T, dtype=bool)
-        for a, b in _runs(same):  # frames a .. b + 1 are identical
-            n_identical = b - a + 2
-            if n_identical < min_len:
-                continue
+        for a, b in long_runs:
             if b + 1 == T - 1:
                 exit_jump = True
             else:  # the step out is a jump next to the joint's usual steps and to its steps around the stretch
@@ -180,6 +195,9 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         good = np.flatnonzero(~flagged)
         if good.size < 3:
             continue
+        if good.size == T and _steps_below(ch, sk.rotation_columns(j), lim):
+            quats.pop(j, None)
+            continue  # no step reaches the limit, so no spike: the rotations are not needed
         q = joint_quats(j)
         quats.pop(j, None)  # the last use of this joint's rotations: one joint's at a time
         if q is None:

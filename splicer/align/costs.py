@@ -245,69 +245,89 @@ def _signs(x, eps, ramp, out):
                 out[t, m, k] = _sgn(x[t, m, k], eps, ramp)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _d1_rows(i0, i1, lo, hi, width, sv, sa, wb, hb, svu, sau, vh, ah, evh, eah, rvh, rah, wh, hh, up, mode, out):
+@njit(cache=True, inline="always", error_model="numpy")
+def _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, o):
+    # D1 of row i's band cells l .. l + w - 1 into o[:w], given each cell's turn (cs, sn).
     # Frames last everywhere: sv, sa (K, 3, T): body velocity / acceleration signs; svu, sau (K, T):
     # the hands' signs along the up axis, which no turn changes; vh, ah (K, 3, T): the hands' raw
-    # derivatives (turned per cell); wb, wh (2, N, T): the theta windows; evh, eah: the hands'
-    # dead zones; rvh, rah: their sign ramps.  Each row works through its band one term at a time
-    # over all its cells (unit-stride loops the compiler vectorises); every cell adds its terms
-    # in the same order as a cell-by-cell loop would, so the costs are the same bit for bit.
-    # cos/sin of theta come straight from the KGP sums: theta = atan2(num, den).
+    # derivatives (turned per cell); evh, eah: the hands' dead zones; rvh, rah: their sign ramps.
+    # The row is worked through one term at a time over all its cells (unit-stride loops the
+    # compiler vectorises); every cell adds its terms in the same order as a cell-by-cell loop
+    # would, so the costs are the same bit for bit.
     a = (up + 1) % 3
     b = (up + 2) % 3
-    K = sv.shape[0]
+    for c in range(w):
+        o[c] = 0.0
+    for m in range(sv.shape[0]):
+        s1, s2, s3, s4, s5, s6 = sv[m, up, i], sa[m, up, i], sv[m, a, i], sv[m, b, i], sa[m, a, i], sa[m, b, i]
+        va, vb, aa, ab, su, au = vh[m, a], vh[m, b], ah[m, a], ah[m, b], svu[m], sau[m]
+        for c in range(w):
+            j = l + c
+            co = cs[c]
+            si = sn[c]
+            cost = o[c]
+            d = s1 - su[j]
+            cost += d * d
+            d = s2 - au[j]
+            cost += d * d
+            d = s3 - _sgn(co * va[j] - si * vb[j], evh, rvh)
+            cost += d * d
+            d = s4 - _sgn(si * va[j] + co * vb[j], evh, rvh)
+            cost += d * d
+            d = s5 - _sgn(co * aa[j] - si * ab[j], eah, rah)
+            cost += d * d
+            d = s6 - _sgn(si * aa[j] + co * ab[j], eah, rah)
+            cost += d * d
+            o[c] = cost
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _d1_rows_window(i0, i1, lo, hi, width, sv, sa, wb, svu, sau, vh, ah, evh, eah, rvh, rah, wh, up, out):
+    # D1 of rows i0..i1-1 with the paper's theta per cell: cos/sin straight from the KGP sums over
+    # the 5-frame windows wb, wh (2, N, T), theta = atan2(num, den).  One kernel per way of turning,
+    # so a run compiles only the one it uses (both in one kernel took 2.3 s more to compile).
     N = wb.shape[1]
+    for r in prange(i1 - i0):
+        i = i0 + r
+        l = lo[i]
+        w = hi[i] - l + 1
+        num = np.zeros(w)
+        den = np.zeros(w)
+        for k in range(N):
+            b0 = wb[0, k, i]
+            b1 = wb[1, k, i]
+            h0 = wh[0, k]
+            h1 = wh[1, k]
+            for c in range(w):
+                num[c] += b1 * h0[l + c] - b0 * h1[l + c]
+                den[c] += b0 * h0[l + c] + b1 * h1[l + c]
+        cs = np.empty(w)
+        sn = np.empty(w)
+        for c in range(w):
+            norm = np.sqrt(num[c] * num[c] + den[c] * den[c])
+            cs[c] = den[c] / norm if norm > 0.0 else 1.0
+            sn[c] = num[c] / norm if norm > 0.0 else 0.0
+        o = out[r]
+        _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, o)
+        for c in range(w, width):
+            o[c] = np.inf
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _d1_rows_heading(i0, i1, lo, hi, width, sv, sa, hb, svu, sau, vh, ah, evh, eah, rvh, rah, hh, up, out):
+    # D1 of rows i0..i1-1 with theta the difference of the root headings hb[i] - hh[j]
     for r in prange(i1 - i0):
         i = i0 + r
         l = lo[i]
         w = hi[i] - l + 1
         cs = np.empty(w)
         sn = np.empty(w)
-        o = out[r]
-        if mode == 0:
-            num = np.zeros(w)
-            den = np.zeros(w)
-            for k in range(N):
-                b0 = wb[0, k, i]
-                b1 = wb[1, k, i]
-                h0 = wh[0, k]
-                h1 = wh[1, k]
-                for c in range(w):
-                    num[c] += b1 * h0[l + c] - b0 * h1[l + c]
-                    den[c] += b0 * h0[l + c] + b1 * h1[l + c]
-            for c in range(w):
-                norm = np.sqrt(num[c] * num[c] + den[c] * den[c])
-                cs[c] = den[c] / norm if norm > 0.0 else 1.0
-                sn[c] = num[c] / norm if norm > 0.0 else 0.0
-        else:
-            for c in range(w):
-                th = hb[i] - hh[l + c]
-                cs[c] = np.cos(th)
-                sn[c] = np.sin(th)
         for c in range(w):
-            o[c] = 0.0
-        for m in range(K):
-            s1, s2, s3, s4, s5, s6 = sv[m, up, i], sa[m, up, i], sv[m, a, i], sv[m, b, i], sa[m, a, i], sa[m, b, i]
-            va, vb, aa, ab, su, au = vh[m, a], vh[m, b], ah[m, a], ah[m, b], svu[m], sau[m]
-            for c in range(w):
-                j = l + c
-                co = cs[c]
-                si = sn[c]
-                cost = o[c]
-                d = s1 - su[j]
-                cost += d * d
-                d = s2 - au[j]
-                cost += d * d
-                d = s3 - _sgn(co * va[j] - si * vb[j], evh, rvh)
-                cost += d * d
-                d = s4 - _sgn(si * va[j] + co * vb[j], evh, rvh)
-                cost += d * d
-                d = s5 - _sgn(co * aa[j] - si * ab[j], eah, rah)
-                cost += d * d
-                d = s6 - _sgn(si * aa[j] + co * ab[j], eah, rah)
-                cost += d * d
-                o[c] = cost
+            th = hb[i] - hh[l + c]
+            cs[c] = np.cos(th)
+            sn[c] = np.sin(th)
+        o = out[r]
+        _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, o)
         for c in range(w, width):
             o[c] = np.inf
 
@@ -347,7 +367,7 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window",
         raise ValueError(f"position_weight must be >= 0 and finite, got {position_weight!r}")
     if w > 0.0 and (body.position is None or hands.position is None):
         raise ValueError("a position weight needs phase_features(..., position=True) on both takes")
-    # frames last (see _d1_rows), writable C arrays throughout: one compiled kernel
+    # frames last (see _d1_terms), writable C arrays throughout: one compiled kernel each
     sv, sa = np.empty(body.vel.shape[1:] + body.vel.shape[:1]), np.empty(body.acc.shape[1:] + body.acc.shape[:1])
     _signs(_frames_last(body.vel), body.eps_vel, body.ramp_vel, sv)
     _signs(_frames_last(body.acc), body.eps_acc, body.ramp_acc, sa)
@@ -362,9 +382,12 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window",
     def cost(band, i0: int, i1: int) -> np.ndarray:
         width = band.max_row_width  # the engine wants every chunk padded to the widest row
         out = np.empty((i1 - i0, width))
-        _d1_rows(i0, i1, band.lo, band.hi, width, sv, sa, wb, body.heading, svu, sau, vh, ah,
-                 hands.eps_vel, hands.eps_acc, hands.ramp_vel, hands.ramp_acc, wh, hands.heading,
-                 body.up, mode, out)
+        if mode == 0:
+            _d1_rows_window(i0, i1, band.lo, band.hi, width, sv, sa, wb, svu, sau, vh, ah, hands.eps_vel,
+                            hands.eps_acc, hands.ramp_vel, hands.ramp_acc, wh, body.up, out)
+        else:
+            _d1_rows_heading(i0, i1, band.lo, band.hi, width, sv, sa, body.heading, svu, sau, vh, ah, hands.eps_vel,
+                             hands.eps_acc, hands.ramp_vel, hands.ramp_acc, hands.heading, body.up, out)
         if w > 0.0:
             _position_rows(i0, i1, band.lo, band.hi, body.position, hands.position, w, out)
         return out

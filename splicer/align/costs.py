@@ -224,13 +224,15 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
     )
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _sgn(x, eps, ramp):
     # the dead-zoned sign; with ramp > 0 it rises linearly from 0 at eps to 1 at eps + ramp.
     # Written with selects, not branches: D1's signs of real derivatives flip unpredictably from
     # one band cell to the next, and mispredicted branches were half of D1's time.  The values
     # are those of the branching form bit for bit (NaN -> 0; -(|x| - eps) / ramp == (x + eps) / ramp
     # exactly), tested against it; the unused quotient (ramp 0) is harmless under numpy's error model.
+    # Not inlined by numba (inline="always"): LLVM inlines it anyway, and numba's own inlining of
+    # its four uses (and of _d1_terms) cost 0.9 s of compiling for no speed.
     ax = abs(x)
     v = (ax - eps) / ramp if ax < eps + ramp else 1.0
     v = v if ax > eps else 0.0
@@ -245,7 +247,7 @@ def _signs(x, eps, ramp, out):
                 out[t, m, k] = _sgn(x[t, m, k], eps, ramp)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, o):
     # D1 of row i's band cells l .. l + w - 1 into o[:w], given each cell's turn (cs, sn).
     # Frames last everywhere: sv, sa (K, 3, T): body velocity / acceleration signs; svu, sau (K, T):

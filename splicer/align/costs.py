@@ -64,10 +64,6 @@ class PhaseFeatures:
     window : np.ndarray [shape=(T, 2, 20)]
         Horizontal marker coordinates (axes ``a, b`` of :func:`horizontal_axes`) of the
         5-frame window around each frame, mean removed, for theta.
-
-    :func:`phase_features` lays ``vel``, ``acc`` and ``window`` out in memory with the frames
-    last (they are ``(T, ...)`` views of ``(..., T)`` arrays): D1's kernel reads one coordinate
-    of a row's whole band of hands frames at a time.
     heading : np.ndarray [shape=(T,)]
         Root heading, radians.
     up : int
@@ -77,6 +73,10 @@ class PhaseFeatures:
     position : np.ndarray [shape=(T, 9)] or None
         Normalised positions for the position term (:func:`position_features`); None
         when not asked for.
+
+    :func:`phase_features` lays ``vel``, ``acc`` and ``window`` out in memory with the frames
+    last (they are ``(T, ...)`` views of ``(..., T)`` arrays): D1's kernel reads one coordinate
+    of a row's whole band of hands frames at a time.
     """
 
     vel: np.ndarray
@@ -287,7 +287,7 @@ def _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up,
 def _d1_rows_window(i0, i1, lo, hi, width, sv, sa, wb, svu, sau, vh, ah, evh, eah, rvh, rah, wh, up, out):
     # D1 of rows i0..i1-1 with the paper's theta per cell: cos/sin straight from the KGP sums over
     # the 5-frame windows wb, wh (2, N, T), theta = atan2(num, den).  One kernel per way of turning,
-    # so a run compiles only the one it uses (both in one kernel took 2.3 s more to compile).
+    # so a run compiles only the one it uses.
     N = wb.shape[1]
     for r in prange(i1 - i0):
         i = i0 + r

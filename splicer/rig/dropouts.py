@@ -68,8 +68,9 @@ def _steps_below(ch: np.ndarray, cols, lim_deg: float) -> bool:
     ``lim_deg``: the turn between two frames is at most the sum of its Euler angles' changes
     (each factor of the product turns about one axis; the angle between rotations is a metric
     that composition leaves unchanged), so a sum below the limit, with a margin far above the
-    rounding of the angle itself, settles the jump test without any quaternion (a 70-minute hand
-    take's finger joints, 4-8 s of the dropout scan)."""
+    rounding of the angle itself, settles the jump test without any quaternion (most finger
+    joints of a clean take: the 70-minute hands take's scan 9.7 -> 8.1 s, the rest being joints
+    whose repeats the frozen test must measure)."""
     if len(cols) != 3 or ch.shape[0] < 2:
         return False
     bound = np.zeros(ch.shape[0] - 1)

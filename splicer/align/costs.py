@@ -249,7 +249,8 @@ def _signs(x, eps, ramp, out):
 
 @njit(cache=True, error_model="numpy")
 def _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, o):
-    # D1 of row i's band cells l .. l + w - 1 into o[:w], given each cell's turn (cs, sn).
+    # D1 of row i's band cells l .. l + w - 1 into o[:w], given each cell's turn (cs, sn), and +inf
+    # in the rest of o (the chunk is as wide as its widest row).
     # Frames last everywhere: sv, sa (K, 3, T): body velocity / acceleration signs; svu, sau (K, T):
     # the hands' signs along the up axis, which no turn changes; vh, ah (K, 3, T): the hands' raw
     # derivatives (turned per cell); evh, eah: the hands' dead zones; rvh, rah: their sign ramps.
@@ -281,10 +282,12 @@ def _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up,
             d = s6 - _sgn(si * aa[j] + co * ab[j], eah, rah)
             cost += d * d
             o[c] = cost
+    for c in range(w, o.shape[0]):
+        o[c] = np.inf
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _d1_rows_window(i0, i1, lo, hi, width, sv, sa, wb, svu, sau, vh, ah, evh, eah, rvh, rah, wh, up, out):
+def _d1_rows_window(i0, i1, lo, hi, sv, sa, wb, svu, sau, vh, ah, evh, eah, rvh, rah, wh, up, out):
     # D1 of rows i0..i1-1 with the paper's theta per cell: cos/sin straight from the KGP sums over
     # the 5-frame windows wb, wh (2, N, T), theta = atan2(num, den).  One kernel per way of turning,
     # so a run compiles only the one it uses.
@@ -309,14 +312,11 @@ def _d1_rows_window(i0, i1, lo, hi, width, sv, sa, wb, svu, sau, vh, ah, evh, ea
             norm = np.sqrt(num[c] * num[c] + den[c] * den[c])
             cs[c] = den[c] / norm if norm > 0.0 else 1.0
             sn[c] = num[c] / norm if norm > 0.0 else 0.0
-        o = out[r]
-        _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, o)
-        for c in range(w, width):
-            o[c] = np.inf
+        _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, out[r])
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _d1_rows_heading(i0, i1, lo, hi, width, sv, sa, hb, svu, sau, vh, ah, evh, eah, rvh, rah, hh, up, out):
+def _d1_rows_heading(i0, i1, lo, hi, sv, sa, hb, svu, sau, vh, ah, evh, eah, rvh, rah, hh, up, out):
     # D1 of rows i0..i1-1 with theta the difference of the root headings hb[i] - hh[j]
     for r in prange(i1 - i0):
         i = i0 + r
@@ -328,10 +328,14 @@ def _d1_rows_heading(i0, i1, lo, hi, width, sv, sa, hb, svu, sau, vh, ah, evh, e
             th = hb[i] - hh[l + c]
             cs[c] = np.cos(th)
             sn[c] = np.sin(th)
-        o = out[r]
-        _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, o)
-        for c in range(w, width):
-            o[c] = np.inf
+        _d1_terms(i, l, w, cs, sn, sv, sa, svu, sau, vh, ah, evh, eah, rvh, rah, up, out[r])
+
+
+def _sign_array(x: np.ndarray, eps: float, ramp: float) -> np.ndarray:
+    """The dead-zoned signs of a C-contiguous 3-D array, a new array of its shape."""
+    out = np.empty_like(x)
+    _signs(x, eps, ramp, out)
+    return out
 
 
 def _frames_last(x: np.ndarray) -> np.ndarray:
@@ -370,25 +374,22 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window",
     if w > 0.0 and (body.position is None or hands.position is None):
         raise ValueError("a position weight needs phase_features(..., position=True) on both takes")
     # frames last (see _d1_terms), writable C arrays throughout: one compiled kernel each
-    sv, sa = np.empty(body.vel.shape[1:] + body.vel.shape[:1]), np.empty(body.acc.shape[1:] + body.acc.shape[:1])
-    _signs(_frames_last(body.vel), body.eps_vel, body.ramp_vel, sv)
-    _signs(_frames_last(body.acc), body.eps_acc, body.ramp_acc, sa)
+    sv = _sign_array(_frames_last(body.vel), body.eps_vel, body.ramp_vel)
+    sa = _sign_array(_frames_last(body.acc), body.eps_acc, body.ramp_acc)
     vh, ah, wb, wh = (_frames_last(x) for x in (hands.vel, hands.acc, body.window, hands.window))
     # the hands' signs along the up axis, once per frame
     up = body.up
-    svu, sau = (np.empty((x.shape[0], 1, x.shape[2])) for x in (vh, ah))
-    _signs(np.ascontiguousarray(vh[:, up:up + 1]), hands.eps_vel, hands.ramp_vel, svu)
-    _signs(np.ascontiguousarray(ah[:, up:up + 1]), hands.eps_acc, hands.ramp_acc, sau)
-    svu, sau = svu[:, 0], sau[:, 0]
+    svu = _sign_array(np.ascontiguousarray(vh[:, up:up + 1]), hands.eps_vel, hands.ramp_vel)[:, 0]
+    sau = _sign_array(np.ascontiguousarray(ah[:, up:up + 1]), hands.eps_acc, hands.ramp_acc)[:, 0]
 
     def cost(band, i0: int, i1: int) -> np.ndarray:
         width = band.max_row_width  # the engine wants every chunk padded to the widest row
         out = np.empty((i1 - i0, width))
         if mode == 0:
-            _d1_rows_window(i0, i1, band.lo, band.hi, width, sv, sa, wb, svu, sau, vh, ah, hands.eps_vel,
+            _d1_rows_window(i0, i1, band.lo, band.hi, sv, sa, wb, svu, sau, vh, ah, hands.eps_vel,
                             hands.eps_acc, hands.ramp_vel, hands.ramp_acc, wh, body.up, out)
         else:
-            _d1_rows_heading(i0, i1, band.lo, band.hi, width, sv, sa, body.heading, svu, sau, vh, ah, hands.eps_vel,
+            _d1_rows_heading(i0, i1, band.lo, band.hi, sv, sa, body.heading, svu, sau, vh, ah, hands.eps_vel,
                              hands.eps_acc, hands.ramp_vel, hands.ramp_acc, hands.heading, body.up, out)
         if w > 0.0:
             _position_rows(i0, i1, band.lo, band.hi, body.position, hands.position, w, out)

@@ -196,10 +196,8 @@ def detect_problems(motion: Motion, joints=None, *, max_speed_deg_s: float = MAX
         good = np.flatnonzero(~flagged)
         if good.size < 3:
             continue
-        if good.size == T and _steps_below(ch, sk.rotation_columns(j), lim):
-            quats.pop(j, None)
-            continue  # no step reaches the limit, so no spike: the rotations are not needed
-        q = joint_quats(j)
+        # no step can reach the limit, so no spike: the rotations are not needed
+        q = None if good.size == T and _steps_below(ch, sk.rotation_columns(j), lim) else joint_quats(j)
         quats.pop(j, None)  # the last use of this joint's rotations: one joint's at a time
         if q is None:
             continue

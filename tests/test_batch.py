@@ -13,8 +13,8 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from splicer.batch import (ManifestError, PairJob, is_finished, job_hash, main, pair_folders,  # noqa: E402
-                           read_manifest, run_batch)
+from splicer.batch import (ManifestError, PairJob, is_finished, job_hash, job_size, largest_first, main,  # noqa: E402
+                           pair_folders, read_manifest, run_batch)
 from splicer.io.bvh import read_bvh, write_bvh  # noqa: E402
 from splicer.pairing import decide_pairs  # noqa: E402
 from splicer.evaluation.separate import separate  # noqa: E402
@@ -113,6 +113,34 @@ def test_resume_after_kill_runs_only_unfinished(client, takes, tmp_path):
     # a killed write leaves at most a temporary file: a missing output also means unfinished
     (tmp_path / "out" / "sample.bvh").unlink()
     assert [r["status"] for r in run_batch(jobs, out, client)] == ["done", "done earlier"]
+
+
+def test_largest_pairs_run_first(takes, tmp_path):
+    """A batch hands out its pairs largest first (input bytes), whatever the manifest's order:
+    on one worker they start in that order (the reports' start times)."""
+    d, _ = takes
+    jobs = [PairJob("small", str(d / "body" / "take1.bvh"), str(d / "hands" / "hands_0.bvh"), str(tmp_path / "o1.bvh"),
+                    options={"side": "left"}),
+            PairJob("sample", str(MOTIONS / "sample_body.bvh"), str(MOTIONS / "sample_hands.bvh"), str(tmp_path / "o2.bvh"),
+                    options={"side": "left"})]
+    # the same small pair with its hands take twice as long
+    long_hands = tmp_path / "long_hands.bvh"
+    h = read_bvh(d / "hands" / "hands_0.bvh")
+    write_bvh(h.with_channels(np.concatenate([h.channels, h.channels[::-1]])), long_hands)
+    jobs.append(PairJob("long", str(d / "body" / "take1.bvh"), str(long_hands), str(tmp_path / "o3.bvh"),
+                        options={"side": "left"}))
+    sizes = {j.name: job_size(j) for j in jobs}
+    jobs.sort(key=lambda j: sizes[j.name])  # given smallest first
+    expected = [j.name for j in jobs][::-1]
+    assert len(set(sizes.values())) == 3 and min(sizes.values()) > 0
+    assert [j.name for j in largest_first(jobs)] == expected
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as c, \
+            distributed.Client(c) as one:
+        rows = run_batch(jobs, tmp_path / "batch", one)
+    assert [r["status"] for r in rows] == ["done"] * 3
+    started = {j.name: json.loads((tmp_path / "batch" / "reports" / f"{j.name}.json").read_text())["batch"]["started_unix_s"]
+               for j in jobs}
+    assert sorted(started, key=started.get) == expected
 
 
 def test_changed_entry_or_input_is_run_again(client, takes, tmp_path):

@@ -40,6 +40,20 @@ def test_biomechanics_unsided_with_subject_prefix_and_clusters():
     assert any("tell no side" in n for n in arm.notes)
 
 
+def test_biomechanics_shoulder_is_the_acromion_cluster_mean():
+    """The shoulder (every marker's reference) is the mean of the acromion's neighbours the set
+    has; a set with only one of them uses it, and far scapula markers never join."""
+    arm_names = ["STYLr", "STYLu", "LARMl", "LARMm", "INDEX", "LASTC", "MEDH", "LATH"]
+    t = _traj(arm_names + ["ACRO_tip", "CLAV_AC", "SCAP_AA", "SCAP_IA"])
+    r = find_marker_roles(t, "right")
+    assert r.roles["shoulder"] == (8, 9, 10)
+    arm = arm_from_trajectories(t, "right", mapping={"up": "z"})
+    np.testing.assert_allclose(arm.markers.shoulder, t.points[:, 8:11].mean(axis=1))
+    for only in ("CLAV_AC", "ACRO"):
+        t1 = _traj(arm_names + [only, "SCAP_IA"])
+        assert find_marker_roles(t1, "right").labels(t1)["shoulder"] == [only]
+
+
 def test_optitrack_style_sided():
     t = _traj(["RWristOut", "RWristIn", "RForeArm", "RHandOut", "RHandIn", "RShoulderTop", "LWristOut"])
     r = find_marker_roles(t, "right")
@@ -85,7 +99,10 @@ def test_shared_vicon_capture(shared_motions):
     assert (t.n_frames, t.n_markers, t.fps, t.units) == (580, 51, 100.0, "mm")
     assert 0.005 < t.missing.mean() < 0.02
     arm = arm_from_trajectories(t, "right")  # no configuration
-    assert arm.roles.labels(t)["p1"] == ["Daphnee:STYLr"] and arm.roles.labels(t)["shoulder"] == ["Daphnee:ACRO_tip"]
+    assert arm.roles.labels(t)["p1"] == ["Daphnee:STYLr"]
+    # the acromion's neighbours are averaged with it (its noise is every coordinate's); the
+    # scapula's far markers (SCAP_IA, SCAP_RS, ...) are not
+    assert arm.roles.labels(t)["shoulder"] == [f"Daphnee:{s}" for s in ("ACRO_tip", "CLAV_AC", "SCAP_AA")]
     assert arm.roles.labels(t)["p3"] == [f"Daphnee:{s}" for s in ("LARMl", "LARMm", "LARM_elb", "LARM_ant")]
     assert arm.markers.up == 2 and np.isfinite(arm.markers.points).all()
     filled = {(f.label, f.start) for f in arm.gaps.fills}

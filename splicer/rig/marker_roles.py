@@ -8,9 +8,9 @@ the order they are tried:
 set                 p1              p2              p3                          p4                           shoulder
 ==================  ==============  ==============  ==========================  ===========================  ================
 Plug-in Gait        RWRA            RWRB            RFRM                        RFIN                         RSHO
-biomechanics        STYLr (RS)      STYLu (US)      LARMl LARMm LARM_elb        INDEX LASTC (averaged:       ACRO_tip (ACRO)
-                                                    LARM_ant (averaged)         the middle finger's base;
-                                                                                or MCP2 MCP5, MEDH LATH)
+biomechanics        STYLr (RS)      STYLu (US)      LARMl LARMm LARM_elb        INDEX LASTC (averaged:       ACRO_tip CLAV_AC
+                                                    LARM_ant (averaged)         the middle finger's base;    SCAP_AA (averaged;
+                                                                                or MCP2 MCP5, MEDH LATH)     or ACRO)
 OptiTrack/Qualisys  RWristOut       RWristIn        RForeArm (RFArm, RForearm)  RHandOut RHandIn (averaged)  RShoulderTop
 ==================  ==============  ==============  ==========================  ===========================  ================
 
@@ -23,7 +23,11 @@ cluster) are averaged after gap filling (or fitted as rigid segments with ``deri
 knuckle markers where a set has them — the base of the middle finger, as the virtual ``p4``
 (ALGORITHM.md section 1); it aligned better than the centroid of all four hand markers on
 the evaluation protocol (0.08 body frames less mean error, seeds 100-101).  The other hand
-markers serve as rigid-fill donors.
+markers serve as rigid-fill donors.  The ``shoulder`` is the mean of the markers around the
+acromioclavicular joint that the set has (acromion tip, AC joint, acromial angle): every other
+marker is taken relative to it, so its noise enters all twelve coordinates of D1 at once, and
+three markers carry 1/sqrt(3) of one's (on the protocol's C3D markers, tuning seeds 0-4: 0.575
+-> 0.533 body frames of mean error; 0.498 either way without noise).
 
 The constraints file overrides any role, per take and side, and may state the up axis::
 
@@ -59,7 +63,7 @@ MARKER_SETS = {
         {"p1": [("STYLr",), ("RS",), ("RSP",)], "p2": [("STYLu",), ("US",), ("USP",)],
          "p3": [("LARMl", "LARMm", "LARM_elb", "LARM_ant"), ("FA1", "FA2", "FA3", "FA4"), ("FARM",)],
          "p4": [("INDEX", "LASTC"), ("MCP2", "MCP5"), ("MEDH", "LATH"), ("HAND",)],
-         "shoulder": [("ACRO_tip",), ("ACRO",), ("AC",), ("CLAV_AC",)]},
+         "shoulder": [("ACRO_tip", "CLAV_AC", "SCAP_AA"), ("ACRO",), ("AC",)]},
         {"forearm": ("STYLr", "STYLr_up", "STYLu", "LARMl", "LARMm", "LARM_elb", "LARM_ant", "RS", "US",
                      "FA1", "FA2", "FA3", "FA4"),
          "hand": ("INDEX", "LASTC", "MEDH", "LATH", "MCP2", "MCP5"),

@@ -3,7 +3,7 @@
 :class:`splicer.options.SpliceOptions`, the passes in :mod:`splicer.align` and the feature
 functions in :mod:`splicer.metrics` all take their defaults from here, so a notebook that
 calls ``phase_features(markers)`` sees the same dead zone as the splice.  The values were
-chosen by measurement on held-out synthetic separations (README, *Accuracy*).
+chosen by measurement on held-out synthetic separations (README *Accuracy*; benchmarks/HISTORY.md).
 
 Units are in the names: ``_S`` seconds, ``_FPS`` frames per second, ``_FRAMES`` frames.
 """
@@ -17,7 +17,7 @@ BAND1 = "30%"
 #: the band follows the coarse guide pass's path, so it only has to hold the fine path's
 #: departures from that path, not the take's drift from uniform timing.  30 % of a 20-minute
 #: take (about 2 billion band cells, 2 GB of DTW steps) would be absurd.  Measured on the
-#: 20-minute benchmark pair (README, *Speed*): bands of 4, 8 and 20 s give the same pass-1 path
+#: 20-minute benchmark pair (README *Speed*; benchmarks/HISTORY.md): bands of 4, 8 and 20 s give the same pass-1 path
 #: and confidence; 2 s moves the path (left side mean error 5.4 -> 6.7 frames); chosen with a
 #: margin over that.
 GUIDED_BAND1 = "4s"
@@ -47,7 +47,7 @@ NOISE_RATIO = 1.2
 #: clean pairs of the tests 1.65 (their 12-s hands takes carry wrist noise), the bundled sample
 #: 1.39; the imitation of a second performance 1.37-2.55 (4 of 8 pairs over 1.7: the four
 #: whose default alignment failed) and *all* 2.02-3.83.  Matching at every excess over 1.2 also
-#: fired on clean pairs and cost them accuracy (README, *Accuracy*).
+#: fired on clean pairs and cost them accuracy (README *Accuracy*; benchmarks/HISTORY.md).
 NOISE_TRIGGER = 1.7
 #: ``noise_ratio="auto"``, two sides, noise matching not triggered: when the hands' time maps
 #: are more than 0.1 s apart in over this share of the body frames, the pair is aligned again
@@ -63,7 +63,7 @@ NOISE_WARN = 1.6
 SMOOTH_STEPS = (1.0, 2.0, 4.0, 6.0, 8.0)
 #: Pass 1's position term (``position_weight="auto"``, :func:`splicer.align.costs.d1_cost`):
 #: D1 units per unit of the mean squared difference of the normalised shoulder-relative wrist
-#: and hand positions.  Tuning seeds 0-3 of the nine scenarios (README, *Accuracy*), weights
+#: and hand positions.  Tuning seeds 0-3 of the nine scenarios (README *Accuracy*; benchmarks/HISTORY.md), weights
 #: 0 / 1 / 3 / 10 / 30 on every pair: 3 leaves the clean scenarios as they were or better
 #: (synthetic speed 0.051 -> 0.037 s) and 10 or more costs them (synthetic short 0.030 ->
 #: 0.037 s at 10); where the arm is noisy (imitation, all) 10 is far better than 3
@@ -112,5 +112,5 @@ UNCOVERED_QUANTILE = 0.1
 #: gives each side its own pass 1 (the paper).  Measured on the ground-truth protocol (tuning
 #: seeds 0-3, all nine scenarios, both takes): mean error 0.025-0.037 s -> 0.015-0.028 s on the
 #: clean scenarios, imitation 0.061 / 0.163 -> 0.042 / 0.081 s, *all* 0.151 / 0.604 -> 0.071 /
-#: 0.120 s (README, *Accuracy*).
+#: 0.120 s (README *Accuracy*; benchmarks/HISTORY.md).
 PASS1_ARMS = "both"

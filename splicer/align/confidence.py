@@ -458,7 +458,7 @@ def posterior_confidence(posterior, fps: float, *, error_scale_s: float = 0.1) -
     The expected path (:mod:`splicer.align.posterior`) weighs every path near the best one
     by ``exp(-cost / temperature)``; its standard deviation per body frame is how far the
     alignments that are almost as good as the chosen one wander: the estimated error.
-    Measured against the ground truth (README, *Accuracy*), it flags badly aligned frames
+    Measured against the ground truth (README *Accuracy*; benchmarks/HISTORY.md), it flags badly aligned frames
     far more often than the cost landscape's threshold rule of :func:`row_confidence`, for
     fewer well aligned ones.
 

@@ -29,7 +29,7 @@ from ..defaults import UNCOVERED_QUANTILE  # noqa: E402  (one place of defaults)
 OPEN_HORIZONTAL_WEIGHT = 0.3
 
 #: Default rate of the open-ended locating pass, frames per second (5 fps mislocated the
-#: sample take's slow start by 15 frames on average, 10 fps by 5.6: see the README).
+#: sample take's slow start by 15 frames on average, 10 fps by 5.6: see benchmarks/HISTORY.md).
 OPEN_COARSE_FPS = 10.0
 
 #: Largest coarse matrix of the open-ended locating pass (cells = bytes of DTW steps): 64 Mi.

@@ -14,7 +14,7 @@ Each run of missing samples of a marker is filled by the first method that appli
   at an end of the take); two donors' results are averaged.  The error is the change in the
   two markers' offset during the gap (the segment turning), not the marker's own motion: on
   the protocol's markers, the cubic fills it replaced were off by 12 mm (median RMS) and up to
-  690 mm on 0.5-1 s gaps; see README *Optical markers*.
+  690 mm on 0.5-1 s gaps; see README *Optical markers* and benchmarks/HISTORY.md.
 * ``cubic``: interior gaps without a donor: a cubic spline through up to four seen
   samples on each side (linear when only one on a side).
 * ``constant velocity``: gaps at the start or end without a donor: the marker moves

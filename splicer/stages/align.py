@@ -410,7 +410,7 @@ def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log
     except SplicerError as e:
         raise type(e)(f"{s} side: {e}") from None
     conf = None
-    if located.posterior is not None:  # the expected path's own spread (measured: README, Accuracy)
+    if located.posterior is not None:  # the expected path's own spread (measured: benchmarks/HISTORY.md)
         conf = posterior_confidence(located.posterior, fps)
     elif p1 is not None:  # the best path alone (temperature 0): the cost landscape around it
         log.progress(f"{s}: confidence", 0.0)
@@ -480,7 +480,7 @@ def agree_ends(aligned: dict, markers: dict, opts: SpliceOptions, log: Log | Non
     both corners, or an overlap too short to trust: :func:`_choose_ends`) and the other keep an
     open-ended path, the open one is aligned again end to end, its band following the other
     side's pass-1 path (both hands share one time map when all is well).  Measured on the ground-truth
-    protocol (tuning seeds 0-3, README *Accuracy*): the sides differed in 2 of 60 runs (speed
+    protocol (tuning seeds 0-3, README *Accuracy*; benchmarks/HISTORY.md): the sides differed in 2 of 60 runs (speed
     and imitation), and aligning both end to end cut those runs' mean error from 0.18 to
     0.05 s and from 3.4 to 1.4 s; the bundled sample's left side goes from 0.12 to 0.09 s.
 
@@ -531,7 +531,7 @@ def _choose_ends(p1, n: int, m: int, fps: float, pins) -> str | None:
 
     * The open-ended path starts within :data:`_TOGETHER_S` of both first frames and ends within
       it of both last frames: the takes start and end together, and fixed ends (the paper) are
-      measured more accurate there (README, *Accuracy*).
+      measured more accurate there (README *Accuracy*; benchmarks/HISTORY.md).
     * The covered span is shorter than :data:`_PLAUSIBLE_SHARE` of the shorter take although no
       pin says so and the takes last about as long (2/3 to 3/2): with noisy or repetitive
       motion, an open end can lock onto a short stretch that happens to match; aligning end to

@@ -2,7 +2,7 @@
 
 Both hands come from one hands take, on one clock.  Aligned each on its own arm (the paper,
 ``pass1_arms="each"``), where their time maps disagree at least one of them is off: measured on
-the ground-truth protocol (README, *Accuracy*), the strongest sign of a badly aligned frame
+the ground-truth protocol (README *Accuracy*; benchmarks/HISTORY.md), the strongest sign of a badly aligned frame
 such an alignment has.  Aligned with one pass 1 for both arms (the default), the sides' maps
 part only where pass 2 does, and the check is how far that shared path lies from each arm's
 own path in its band (:func:`arms_departure`).  Each side's estimated error becomes the larger
@@ -61,7 +61,7 @@ def arms_departure(a, b, body_fps: float) -> np.ndarray | None:
     says otherwise there, and one of them is wrong.  Measured on the ground-truth protocol
     (tuning seeds 0-3, all nine scenarios, both takes): with this departure, 72 % / 82 % of the
     frames whose true error exceeds 0.1 s are flagged (zeggs / synthetic), against 25 % / 31 %
-    with the sides' final maps alone; 18 % / 21 % of those within 0.05 s are (README, *Accuracy*).
+    with the sides' final maps alone; 18 % / 21 % of those within 0.05 s are (README *Accuracy*; benchmarks/HISTORY.md).
 
     Parameters
     ----------

@@ -106,6 +106,15 @@ COARSE_ABOVE_S = 120.0
 #: Open ends: a body frame left without hands material costs this quantile of the phase
 #: metric D1 over a sample of all frame pairs (ALGORITHM.md section 9).
 UNCOVERED_QUANTILE = 0.1
+#: Where the hands' material starts or stops inside the body (an uncovered range begins or
+#: ends), the exact frame is located only to within a few frames: covered body frames within
+#: this many seconds of an uncovered range have an estimated error of at least this much, so
+#: they are low confidence (:mod:`splicer.stages.coverage`).  Tuning seeds 0-3, all nine
+#: scenarios: 0.2 / 0.25 / 0.33 / 0.5 s flag 86 / 88 / 90 / 90 % of the zeggs *short*
+#: scenario's badly aligned frames (77 % without), 92 / 93 / 93 / 95 % on the synthetic take
+#: (86 %), for +0 / +0 / +0 / +0.1 points of good frames on zeggs and +0.4 / +0.6 / +0.7 / +1.2
+#: on the synthetic take; held out (seeds 100-104): 58 -> 74 % and 63 -> 76 % (README *Accuracy*).
+COVERAGE_EDGE_S = 1.0 / 3.0
 
 #: Pass 1 of a pair of sides (``pass1_arms``): ``"both"`` aligns both arms with one path, their
 #: local costs averaged, since both hands of one hands take were captured on one clock; ``"each"``

@@ -1,4 +1,5 @@
-"""The whole job as stages: load -> rig -> markers -> align -> time map -> transfer -> cross-check -> report.
+"""The whole job as stages: load -> rig -> markers -> align -> time map -> transfer -> cross-check ->
+coverage edges -> report.
 
 :func:`splice` composes the stages of :mod:`splicer.stages` (one module each); each stage is
 a function with a typed, frozen result, usable on its own (notebooks, other tools), and
@@ -11,6 +12,7 @@ from __future__ import annotations
 from .options import SpliceOptions, resolve_options
 # the private names are used by splice-markers, pairing, the plot and the tests
 from .stages.align import Alignment, _choose_ends, _cover_pins, _pin_error, agree_ends, align_pair, align_side, phase_smoothing  # noqa: F401
+from .stages.coverage import coverage_edges, mark_coverage_edges
 from .stages.crosscheck import cross_check, hands_disagreement
 from .stages.load import Inputs, load_inputs
 from .stages.log import Log
@@ -21,7 +23,8 @@ from .stages.transfer import Transfer, check_fingers, time_map, transfer_side
 
 __all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
            "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "transfer_side",
-           "check_fingers", "cross_check", "hands_disagreement", "build_report", "splice"]
+           "check_fingers", "cross_check", "hands_disagreement", "coverage_edges", "mark_coverage_edges", "build_report",
+           "splice"]
 
 
 
@@ -74,6 +77,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
         out = transfer.motion
         sides[s] = SideResult(s, tm, markers, alignment, transfer.joints, {**transfer.extra, **sanity})
     sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
+    sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames
     report = build_report(inputs, opts, sides, log,
                           extra={**checked.report, "up": {k: u.as_dict() for k, u in rig.up.items()}})
     log.progress("done", 1.0)

@@ -128,13 +128,20 @@ class Confidence:
                           confidence=_confidence_of(est, self.error_scale_s), threshold=self.threshold,
                           error_scale_s=self.error_scale_s, row_excess=self.row_excess, disagreement_s=d)
 
-    def with_floor(self, error_s: float) -> "Confidence":
-        """This confidence with every covered frame's estimated error at least ``error_s`` seconds
-        (uncovered frames stay NaN); ``confidence`` recomputed with the same ``error_scale_s``."""
+    def with_floor(self, error_s: float, where: np.ndarray | None = None) -> "Confidence":
+        """This confidence with every covered frame's estimated error (or only those where the
+        boolean mask ``where`` is true) at least ``error_s`` seconds (uncovered frames stay NaN);
+        ``confidence`` recomputed with the same ``error_scale_s``."""
         f = float(error_s)
         if not (f >= 0.0 and np.isfinite(f)):
             raise ValueError(f"error_s must be >= 0 and finite, got {error_s!r}")
-        est = np.where(np.isfinite(self.est_error_s), np.fmax(self.est_error_s, f), self.est_error_s)
+        apply = np.isfinite(self.est_error_s)
+        if where is not None:
+            w = np.asarray(where)
+            if w.shape != apply.shape or w.dtype != bool:
+                raise ValueError(f"where must be a boolean mask of shape {apply.shape}, got {w.dtype} {w.shape}")
+            apply = apply & w
+        est = np.where(apply, np.fmax(self.est_error_s, f), self.est_error_s)
         return replace(self, est_error_s=est, confidence=_confidence_of(est, self.error_scale_s))
 
     def ambiguous(self) -> np.ndarray:

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..defaults import COVERAGE_EDGE_S
 from ..model.motion import Motion
 from ..options import SpliceOptions
 from ..report import Report, SideReport
@@ -101,8 +102,10 @@ def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
     if uncovered:
         fps = r.markers.spaces.body_fps
         spans = ", ".join(f"{a}-{b} ({(b - a + 1) / fps:.1f} s)" for a, b in uncovered)
+        edges = (f"; the covered frames within {COVERAGE_EDGE_S:.2g} s of them count as low confidence (where the "
+                 "hands material starts and stops is located only to within a few frames)") if aln.confidence is not None else ""
         log.note(f"{r.side} side: no hands material covers body frames {spans}; they keep the body's own "
-                 "fingers, blended in and out")
+                 f"fingers, blended in and out{edges}")
     conf = aln.confidence
     if conf is not None:
         from ..report import _round_list

@@ -150,7 +150,8 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     from .align.frames import FrameSpaces, pins_from_config
     from .rig.marker_arm import arm_from_trajectories
     from .options import resolve_options
-    from .pipeline import Log, SideMarkers, SideResult, _align_up, _coverage_report, align_side, time_map
+    from .pipeline import (Log, SideMarkers, SideResult, _align_up, _coverage_report, align_side, mark_coverage_edges,
+                           time_map)
     from .report import Report, SideReport
     from .io.trajectories import Trajectories, read_trajectories
 
@@ -187,7 +188,8 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
         extra = {"hands_file_frame": [round(float(v) + ht.first_frame, 4) if np.isfinite(v) else None for v in tm],
                  "markers": real}
         # covered / uncovered ranges, confidence and low-confidence ranges as splice reports them
-        extra.update(_coverage_report(SideResult(s, tm, sm, alignment), bt.n_frames, log))
+        side = mark_coverage_edges({s: SideResult(s, tm, sm, alignment)})[s]  # as splice: the edges of coverage
+        extra.update(_coverage_report(side, bt.n_frames, log))
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in sm.pins)
         side_reports[s] = SideReport(s, tm, info(alignment.pass1), info(alignment.pass2), pins, {}, extra)
         log.tick("align")

@@ -3,6 +3,9 @@
 import json
 
 import numpy as np
+
+from splicer.defaults import COVERAGE_EDGE_S
+from splicer.stages.coverage import coverage_edges
 import pytest
 
 c3d = pytest.importorskip("c3d")
@@ -65,6 +68,28 @@ def test_splice_markers_retimes_hands_onto_the_body_timeline(session, capsys):
         truth_s = np.interp(np.arange(body.n_frames) / 50.0, np.arange(len(sep.truth)) / 30.0, sep.truth / 60.0)
         assert np.mean(np.abs(hold_ends(tm) / 100.0 - truth_s)) < 3.0 / 30.0  # within 3 frames of the 30 fps take
         assert s["markers"]["body"]["gaps_filled"] and s["markers"]["body"]["marker_set"] == "biomechanics"
+
+
+def test_splice_markers_flags_the_edges_of_partial_coverage(session, tmp_path):
+    """Hands markers cut to the middle half of their session: the body frames outside are
+    uncovered, and, as splice reports them, the covered frames next to them are low confidence."""
+    import dataclasses
+
+    d, _, hands, body = session
+    n = hands.n_frames
+    part = dataclasses.replace(hands, points=hands.points[n // 4:3 * n // 4].copy(), source="part.c3d")
+    write_c3d(part, tmp_path / "part.c3d")
+    assert main([str(d / "body.c3d"), str(tmp_path / "part.c3d"), "--report", str(tmp_path / "r.json"),
+                 "-o", str(tmp_path / "o.c3d"), "-q"]) == 0
+    rep = json.loads((tmp_path / "r.json").read_text())
+    for side, s in rep["sides"].items():
+        tm = np.array(s["hands_frame"], dtype=np.float64)
+        cov = np.isfinite(tm)
+        assert 0 < cov.sum() < 0.75 * len(cov)
+        edges = coverage_edges(tm, 50.0)
+        assert edges.sum() >= 2 * round(COVERAGE_EDGE_S * 50.0) - 1
+        assert ranges_mask(s["low_confidence"], body.n_frames)[edges].all()
+    assert any("count as low confidence" in w for w in rep["warnings"])
 
 
 def test_splice_with_hands_markers(session):

@@ -160,15 +160,14 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
 
 
 def job_size(job: PairJob) -> int:
-    """Bytes of a pair's inputs (body, hands, marker files): the estimate of its work that orders a
-    batch.  A missing or unreadable input counts 0 (the pair fails at once)."""
+    """Bytes of a pair's two takes: the estimate of its work that orders a batch.  A missing or
+    unreadable take counts 0 (the pair fails at once)."""
     total = 0
-    for f in (job.body, job.hands, *(job.options.get(k) for k in ("hands_markers", "body_markers"))):
-        if isinstance(f, (str, os.PathLike)):
-            try:
-                total += os.path.getsize(f)
-            except OSError:
-                pass
+    for f in (job.body, job.hands):
+        try:
+            total += os.path.getsize(f)
+        except OSError:
+            pass
     return total
 
 

@@ -71,8 +71,7 @@ def test_hands_covering_the_middle_half_flag_the_edges_of_their_coverage():
     assert low[a:a + w].all() and low[b - w + 1:b + 1].all()
     assert np.isnan(est[:a]).all() and np.isnan(est[b + 1:]).all()
     assert any("within 0.33 s of them count as low confidence" in n for n in r.report["warnings"])
-    # the same alignment without the edges: the frames the stage flagged had their own estimate
-    from splicer.stages.coverage import coverage_edges as edges_of
+    # the stage's edges on the final time map: exactly the w frames at each end of the covered stretch
     hf = np.asarray(r.sides["left"].hands_frame, dtype=np.float64)
-    e = edges_of(hf, body.fps)
+    e = coverage_edges(hf, body.fps)
     assert e.sum() == 2 * w and e[a:a + w].all() and e[b - w + 1:b + 1].all()

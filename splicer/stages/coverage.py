@@ -53,11 +53,11 @@ def coverage_edges(hands_frame, fps: float, edge_s: float = COVERAGE_EDGE_S) -> 
     w = int(round(edge_s * fps))
     if w == 0 or not unc.any() or unc.all():
         return np.zeros(h.shape, dtype=bool)
-    # distance (frames) from each frame to the nearest uncovered frame, both directions
+    # uncovered frames in the window [i - w, i + w] of each frame i (numpy alone: a run without
+    # --plot imports no scipy)
+    c = np.concatenate([[0], np.cumsum(unc)])
     idx = np.arange(len(h))
-    last = np.maximum.accumulate(np.where(unc, idx, -len(h) - w))
-    nxt = np.minimum.accumulate(np.where(unc, idx, 2 * len(h) + w)[::-1])[::-1]
-    near = np.minimum(idx - last, nxt - idx) <= w
+    near = c[np.minimum(idx + w + 1, len(h))] - c[np.maximum(idx - w, 0)] > 0
     return near & ~unc
 
 

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.10.0"
+__version__ = "0.11.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)

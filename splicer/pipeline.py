@@ -14,6 +14,7 @@ from .options import SpliceOptions, resolve_options
 from .stages.align import Alignment, _choose_ends, _cover_pins, _pin_error, agree_ends, align_pair, align_side, phase_smoothing  # noqa: F401
 from .stages.coverage import coverage_edges, mark_coverage_edges
 from .stages.crosscheck import cross_check, hands_disagreement
+from .stages.risk import estimate_risk
 from .stages.load import Inputs, load_inputs
 from .stages.log import Log
 from .stages.markers import SideMarkers, _align_up, side_markers  # noqa: F401
@@ -23,7 +24,7 @@ from .stages.transfer import Transfer, check_fingers, time_map, transfer_side
 
 __all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
            "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "transfer_side",
-           "check_fingers", "cross_check", "hands_disagreement", "coverage_edges", "mark_coverage_edges", "build_report",
+           "check_fingers", "cross_check", "hands_disagreement", "estimate_risk", "coverage_edges", "mark_coverage_edges", "build_report",
            "splice"]
 
 
@@ -77,6 +78,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
         out = transfer.motion
         sides[s] = SideResult(s, tm, markers, alignment, transfer.joints, {**transfer.extra, **sanity})
     sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
+    sides = estimate_risk(sides)  # every signal weighed together: the error's 95th percentile per frame
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames
     report = build_report(inputs, opts, sides, log,
                           extra={**checked.report, "up": {k: u.as_dict() for k, u in rig.up.items()}})

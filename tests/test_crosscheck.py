@@ -76,16 +76,21 @@ def test_cross_check_on_the_sample(sample):
     for r in (left, right):
         conf = r.alignment.confidence
         np.testing.assert_allclose(conf.disagreement_s, d)
-        # each side's estimate is the larger of the expected path's spread and the disagreement
+        # the evidence the risk stage weighed: the larger of the expected path's spread and the
+        # disagreement (the estimate is then the risk model's, stages.risk)
         own = r.alignment.posterior.std / r.markers.spaces.body_fps
-        np.testing.assert_allclose(conf.est_error_s, np.fmax(own, d))
+        np.testing.assert_allclose(conf.evidence_error_s, np.fmax(own, d))
         rep = sample.report.to_dict()["sides"][r.side]
         assert rep["disagree"], "the sample's hands part at frames 30-69 (measured up to 1.1 s)"
         low = np.zeros(len(d), bool)
         for a, b in rep["low_confidence"]:
             low[a:b + 1] = True
+        apart = np.zeros(len(d), bool)
         for a, b in rep["disagree"]:
-            assert low[a:b + 1].all()  # every stretch where the hands part is low confidence
+            apart[a:b + 1] = True
+        # the risk model weighs the parting with the other signals: most of those frames, and far
+        # more of them than elsewhere, are low confidence (measured 68 % / 65 %, against 13 % / 13 % elsewhere)
+        assert low[apart].mean() > 0.5 and low[apart].mean() > 2 * low[~apart].mean(), r.side
     assert any("disagree" in w for w in sample.report.to_dict()["warnings"])
 
 
@@ -130,7 +135,10 @@ def test_one_side_is_left_alone(sample):
 def test_the_sample_confidence_is_honest(sample):
     """The sample's true time map is known: of its body frames whose true error exceeds 0.1 s,
     most are flagged, fewer of those within 0.05 s are.  Measured with one pass 1 for both arms
-    (the default): 89 % / 30 % on both sides, of 92 and 420 frames (mean error 0.048 s); each
+    (the default) and the risk model's 95th percentile (stages.risk, fitted on the scenario
+    protocol, not on this sample): 84 % / 21 % (left) and 80 % / 20 % (right), of 92 and 420
+    frames (mean error 0.048 s); with the larger of the spread and the disagreement (0.10.0):
+    89 % / 30 % on both sides; each
     side alone: 82 % / 14 % and 78 % / 20 % (mean error 0.085 / 0.091 s), and 39 % / 44 %,
     20 % / 24 % with the cost landscape's threshold rule before the hands were compared.  The
     shared path has half the badly aligned frames; the arms' own paths, its check, part more
@@ -139,8 +147,8 @@ def test_the_sample_confidence_is_honest(sample):
     for s, r in sample.sides.items():
         err = np.abs(r.hands_frame - truth) / r.markers.spaces.hands_fps
         flagged = r.alignment.confidence.low()
-        assert flagged[err > 0.1].mean() >= 0.8, s
-        assert flagged[err < 0.05].mean() <= 0.35, s
+        assert flagged[err > 0.1].mean() >= 0.75, s  # one frame is 1.1 points: a margin of 4 frames
+        assert flagged[err < 0.05].mean() <= 0.3, s
 
 
 def test_both_hands_get_one_end_condition(sample):

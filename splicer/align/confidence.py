@@ -109,6 +109,9 @@ class Confidence:
     #: per body frame, seconds of hands time between this side's time map and the other
     #: side's (:meth:`with_disagreement`); None when not compared
     disagreement_s: np.ndarray | None = None
+    #: per body frame, the estimated error from the spread and the disagreement alone (seconds),
+    #: kept when :meth:`with_estimate` replaced ``est_error_s``; None otherwise
+    evidence_error_s: np.ndarray | None = None
 
     def with_disagreement(self, disagreement_s: np.ndarray) -> "Confidence":
         """This confidence with the other side's verdict folded in.
@@ -127,6 +130,19 @@ class Confidence:
         return Confidence(spread_frames=self.spread_frames, est_error_s=est,
                           confidence=_confidence_of(est, self.error_scale_s), threshold=self.threshold,
                           error_scale_s=self.error_scale_s, row_excess=self.row_excess, disagreement_s=d)
+
+    def with_estimate(self, est_error_s: np.ndarray) -> "Confidence":
+        """This confidence with ``est_error_s`` replaced (frames uncovered here stay NaN; the
+        previous estimate kept as ``evidence_error_s``); ``confidence`` recomputed with the same
+        ``error_scale_s``."""
+        e = np.asarray(est_error_s, dtype=np.float64)
+        if e.shape != self.est_error_s.shape:
+            raise ValueError(f"est_error_s must have shape {self.est_error_s.shape}, got {e.shape}")
+        est = np.where(np.isfinite(self.est_error_s), e, np.nan)
+        if not bool(np.all(np.isfinite(est) == np.isfinite(self.est_error_s))) or bool(np.any(est < 0)):
+            raise ValueError("est_error_s must be finite and >= 0 on every covered frame")
+        return replace(self, est_error_s=est, confidence=_confidence_of(est, self.error_scale_s),
+                       evidence_error_s=self.est_error_s)
 
     def with_floor(self, error_s: float, where: np.ndarray | None = None) -> "Confidence":
         """This confidence with every covered frame's estimated error (or only those where the

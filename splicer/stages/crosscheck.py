@@ -6,8 +6,10 @@ the ground-truth protocol (README *Accuracy*; benchmarks/HISTORY.md), the strong
 such an alignment has.  Aligned with one pass 1 for both arms (the default), the sides' maps
 part only where pass 2 does, and the check is how far that shared path lies from each arm's
 own path in its band (:func:`arms_departure`).  Each side's estimated error becomes the larger
-of its own (the expected path's spread) and the disagreement, so ``low_confidence`` and the
-summary name the stretches where the hands part; the output motion is not changed.
+of its own (the expected path's spread) and the disagreement; after one pass 1 for both arms,
+the next stage (:mod:`splicer.stages.risk`) weighs it with the other signals into the error's
+95th percentile.  The report's ``disagree`` ranges name the stretches where the hands part; the
+output motion is not changed.
 """
 
 from __future__ import annotations
@@ -144,5 +146,5 @@ def cross_check(sides: dict, log: Log | None = None) -> dict:
         else:
             log.note(f"the {sa} and {sb} arms' motions disagree about the timing by more than {LOW_CONFIDENCE_S:g} s "
                      f"in {100 * share:.0f}% of body frames ({where}): the alignment weighs both, and may be off "
-                     "there; both sides count those frames as low confidence")
+                     "there (the estimated error weighs this with the other signals)")
     return out

@@ -118,7 +118,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--band2", default=None, type=_band_text, help="pass-2 band width (default: a third of --band)")
     p.add_argument("--theta", choices=("window", "heading"), default="window",
                    help="vertical-axis alignment: per frame pair from marker windows (paper) or root heading")
-    p.add_argument("--passes", choices=("both", "pass1"), default="both", help="run both passes (default) or pass 1 only")
+    p.add_argument("--passes", choices=("auto", "both", "pass1"), default="auto",
+                   help="auto (default): both passes, but pass 1 alone for a side aligned on optical markers; "
+                        "both; or pass 1 only")
     p.add_argument("--merge", choices=("timemap", "median"), default="timemap",
                    help="smooth time map with slerp (default) or the paper's median + blend")
     p.add_argument("--wrist", choices=("body", "hands"), default="body", help="wrist rotation from the body (default) or the hands take")

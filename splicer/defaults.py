@@ -120,6 +120,16 @@ COVERAGE_EDGE_S = 1.0 / 3.0
 #: percentile of the scenario targets (README *Accuracy*); chosen before measuring, not tuned.
 RISK_QUANTILE = 0.95
 
+#: The passes (``passes``): ``"auto"`` runs both (pass 2: the palm metric D2, narrower band), but
+#: pass 1 alone for a side aligned on optical markers (``--hands-markers``/``--body-markers``,
+#: ``splice-markers``), whose palm frame, fitted to skin markers a few centimetres apart, is
+#: noisier than the pass-1 path it would refine.  Measured on the markers' protocol
+#: (``benchmarks/eval_markers.py``, mean error in body frames): both C3D 0.533 -> 0.481 on tuning
+#: seeds 0-4 and 0.636 -> 0.586 held out (seeds 100-104; better or equal in every seed), hands
+#: C3D with the body's virtual markers 0.591 -> 0.470 and 0.685 -> 0.569 (better in every seed).
+#: The virtual markers keep pass 2: it helps the synthetic take's scenarios (benchmarks/HISTORY.md).
+PASSES = "auto"
+
 #: Pass 1 of a pair of sides (``pass1_arms``): ``"both"`` aligns both arms with one path, their
 #: local costs averaged, since both hands of one hands take were captured on one clock; ``"each"``
 #: gives each side its own pass 1 (the paper).  Measured on the ground-truth protocol (tuning

@@ -24,7 +24,7 @@ class SpliceOptions:
     band1: int | float | str | None = None  # None: 30% with fixed ends (the paper), 3 s around the located path with open ends, 4 s around the coarse guide's path for a long take end to end (band_width.pass_widths)
     band2: int | float | str | None = None  # None: a third of band1 (the paper: 30% and 10%); a third of 20 s with the long takes' 4 s
     theta: str = "window"  # or "heading"
-    passes: str = "both"  # "pass1", "pass2" (pass 2 alone, for comparison) or "both"
+    passes: str = D.PASSES  # "auto": both, but pass 1 alone for a side aligned on optical markers (defaults.PASSES); "pass1", "pass2" (pass 2 alone, for comparison) or "both"
     pass2_weight: float = D.PASS2_WEIGHT  # radians per band width of departure from the pass-1 warp; 0 = literal
     pass2_d1_weight: float = D.PASS2_D1_WEIGHT  # weight of D1 (normalised) added to D2 in pass 2; 0 = literal
     merge: str = "timemap"  # or "median"
@@ -56,7 +56,7 @@ class SpliceOptions:
         return f"SpliceOptions({', '.join(changed)})"
 
 
-_CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("pass1", "pass2", "both"),
+_CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("auto", "pass1", "pass2", "both"),
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off"), "pass1_arms": ("both", "each"),
             "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "auto", "open", "fixed")}

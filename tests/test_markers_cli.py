@@ -102,6 +102,24 @@ def test_splice_with_hands_markers(session):
     assert err["align_mean"] < 2.0
     side = r.report.to_dict()["sides"]["left"]
     assert side["markers"]["hands"]["path"].endswith("hands.c3d") and "body" not in side["markers"]
+    # passes="auto": pass 1 alone on optical markers (defaults.PASSES); "both" runs pass 2 on them
+    assert all(v.alignment.pass1 is not None and v.alignment.pass2 is None for v in r.sides.values())
+    both = splice(d / "body.bvh", d / "hands.bvh", hands_markers=d / "hands.c3d", passes="both")
+    assert all(v.alignment.pass2 is not None for v in both.sides.values())
+    plain = splice(d / "body.bvh", d / "hands.bvh")  # the BVHs' virtual markers keep pass 2
+    assert all(v.alignment.pass2 is not None for v in plain.sides.values())
+
+
+def test_passes_of():
+    from types import SimpleNamespace
+
+    from splicer.options import SpliceOptions
+    from splicer.stages.align import passes_of
+
+    optical, virtual = SimpleNamespace(real={"hands": {}}), SimpleNamespace(real={})
+    assert passes_of(SpliceOptions(), optical) == "pass1" and passes_of(SpliceOptions(), virtual) == "both"
+    for p in ("both", "pass1", "pass2"):
+        assert passes_of(SpliceOptions(passes=p), optical) == p == passes_of(SpliceOptions(passes=p), virtual)
 
 
 def test_cli_flags_pass_markers(session, tmp_path):

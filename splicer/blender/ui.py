@@ -26,7 +26,8 @@ class SplicerSettings(bpy.types.PropertyGroup):
     merge: bpy.props.EnumProperty(name="Time map", items=[("timemap", "Smooth", "slerp along a smooth time map"),
                                                           ("median", "Median", "the paper's median + blend")])
     wrist: bpy.props.EnumProperty(name="Wrist from", items=[("body", "Body", ""), ("hands", "Hands", "")])
-    passes: bpy.props.EnumProperty(name="Passes", items=[("both", "Both", ""), ("pass1", "Pass 1", "")])
+    passes: bpy.props.EnumProperty(name="Passes", items=[("auto", "Auto", "both; pass 1 alone on optical markers"),
+                                                         ("both", "Both", ""), ("pass1", "Pass 1", "")])
 
     def options(self) -> dict:
         return {"side": self.side, "band1": self.band1, "merge": self.merge, "wrist": self.wrist,

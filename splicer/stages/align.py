@@ -18,7 +18,7 @@ from ..options import SpliceOptions
 from .markers import SideMarkers
 from .log import Log
 
-__all__ = ['Alignment', 'Located', 'phase_smoothing', 'locate', 'refine', 'align_side', 'arms_together',
+__all__ = ['Alignment', 'Located', 'phase_smoothing', 'locate', 'passes_of', 'refine', 'align_side', 'arms_together',
            'agree_ends', 'align_pair']
 
 
@@ -299,7 +299,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
     own = {}
     used = "fixed" if ends == "fixed" else "open"
     try:
-        if opts.passes in ("pass1", "both"):
+        if opts.passes != "pass2":  # "auto", "both", "pass1": pass 1 runs
             log.progress(f"{label}: pass 1", 0.0)
             p1, w1, w2, cons = run_pass1(used, guide)
             check = lambda f: log.progress(f"{label}: check", f)  # noqa: E731
@@ -363,6 +363,15 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
     return Located(p1, per_frame, posterior, covered, used, w1, w2, cons, own, evidence)
 
 
+def passes_of(opts: SpliceOptions, markers: SideMarkers) -> str:
+    """The passes a side runs: ``opts.passes``, with ``"auto"`` (:data:`splicer.defaults.PASSES`)
+    read as ``"pass1"`` for a side aligned on optical markers (``markers.real``) and ``"both"``
+    otherwise."""
+    if opts.passes != "auto":
+        return opts.passes
+    return "pass1" if markers.real else "both"
+
+
 def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log | None = None, *,
            smooth_s: float | None = None) -> Alignment:
     """Pass 2 (palm metric D2) of one side after :func:`locate`, composed, with a confidence.
@@ -387,7 +396,8 @@ def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log
     path = None if p1 is None else p1.path
     p2 = None
     try:
-        if opts.passes == "both":
+        passes = passes_of(opts, markers)
+        if passes == "both":
             log.progress(f"{s}: pass 2", 0.0)
             filled = hold_ends(per_frame)
             p2 = pass2(bmk, warp_markers(hmk, filled), width=located.width2,
@@ -401,7 +411,7 @@ def refine(markers: SideMarkers, located: Located, opts: SpliceOptions, log: Log
                 per_frame[:covered[0]] = np.nan
                 per_frame[covered[1] + 1:] = np.nan
             log.tick("pass2")
-        elif opts.passes == "pass2":
+        elif passes == "pass2":
             p2 = pass2(bmk, hmk, width=located.width1, constraints=cons, diagonal_weight=0.0)
             path, per_frame = p2.path, path_median(p2.path, n)
             log.tick("pass2")

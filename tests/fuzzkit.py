@@ -110,7 +110,7 @@ YAML_VALUES = ["!foo 1", "!!float x", "!!bool maybe", "!!timestamp 2001-13-45", 
 BAND_VALUES = ["30%", "0", "-1", "1e308s", "200%", "nan", "abc", "5", "0.5s", "100000", "1", "0%", "inf", "3s",
                "1e-300", "2", "10%", "９", "", "1" * 5000 + "x"]
 OPTIONS = {"--side": ["left", "right", "both", "up"], "--hands-side": ["left", "right", "middle"],
-           "--theta": ["window", "heading"], "--passes": ["both", "pass1"], "--merge": ["timemap", "median"],
+           "--theta": ["window", "heading"], "--passes": ["auto", "both", "pass1", "pass2"], "--merge": ["timemap", "median"],
            "--wrist": ["body", "hands"], "--band": BAND_VALUES, "--band2": BAND_VALUES}
 
 

@@ -1,5 +1,5 @@
 """The whole job as stages: load -> rig -> markers -> align -> time map -> transfer -> cross-check ->
-coverage edges -> report.
+risk -> coverage edges -> report.
 
 :func:`splice` composes the stages of :mod:`splicer.stages` (one module each); each stage is
 a function with a typed, frozen result, usable on its own (notebooks, other tools), and

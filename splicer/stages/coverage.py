@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..align.risk import distance_to_uncovered
 from ..defaults import COVERAGE_EDGE_S
 
 __all__ = ["coverage_edges", "mark_coverage_edges"]
@@ -50,15 +51,8 @@ def coverage_edges(hands_frame, fps: float, edge_s: float = COVERAGE_EDGE_S) -> 
     if not (fps > 0 and np.isfinite(fps)) or not (edge_s >= 0 and np.isfinite(edge_s)):
         raise ValueError(f"fps must be positive and edge_s >= 0 (both finite), got {fps!r}, {edge_s!r}")
     unc = ~np.isfinite(h)
-    w = int(round(edge_s * fps))
-    if w == 0 or not unc.any() or unc.all():
-        return np.zeros(h.shape, dtype=bool)
-    # uncovered frames in the window [i - w, i + w] of each frame i (numpy alone: a run without
-    # --plot imports no scipy)
-    c = np.concatenate([[0], np.cumsum(unc)])
-    idx = np.arange(len(h))
-    near = c[np.minimum(idx + w + 1, len(h))] - c[np.maximum(idx - w, 0)] > 0
-    return near & ~unc
+    # an uncovered frame within w frames (the risk model's edge feature counts the same way)
+    return (distance_to_uncovered(unc) <= int(round(edge_s * fps))) & ~unc
 
 
 def mark_coverage_edges(sides: dict, edge_s: float = COVERAGE_EDGE_S) -> dict:

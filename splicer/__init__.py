@@ -15,8 +15,9 @@ The splice
 Stages (each returns a typed result; :func:`splice` composes them)
     :func:`load_inputs` -> :func:`find_rig` -> :func:`condition_hands` -> :func:`side_markers`
     -> :func:`align_side` (both sides: :func:`align_pair`, with one noise decision,
-    :func:`phase_smoothing`) -> :func:`time_map` -> :func:`transfer_side` -> :func:`check_fingers`
-    -> :func:`build_report`.
+    :func:`phase_smoothing`) -> :func:`time_map` -> on the sides' :class:`SideResult`:
+    :func:`cross_check` -> :func:`estimate_risk` -> :func:`mark_coverage_edges` ->
+    :func:`trend_time_maps` -> :func:`transfer_side` -> :func:`check_fingers` -> :func:`build_report`.
 The constraints file
     :func:`read_config`, :func:`parse_config`, :class:`SpliceConfig`, :class:`Pin`.
 Skeletons
@@ -42,7 +43,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.11.0"
+__version__ = "0.12.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)
@@ -58,6 +59,8 @@ _LAZY = {
     "load_inputs": ".pipeline", "find_rig": ".pipeline", "condition_hands": ".pipeline", "check_fingers": ".pipeline", "side_markers": ".pipeline", "align_side": ".pipeline",
     "align_pair": ".pipeline", "phase_smoothing": ".pipeline",
     "time_map": ".pipeline", "transfer_side": ".pipeline", "build_report": ".pipeline",
+    "cross_check": ".pipeline", "estimate_risk": ".pipeline", "mark_coverage_edges": ".pipeline",
+    "trend_time_maps": ".pipeline",
     "SpliceOptions": ".options",
     "Report": ".report", "SideReport": ".report",
     "read_config": ".io.config", "parse_config": ".io.config", "SpliceConfig": ".io.config",

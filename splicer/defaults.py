@@ -97,6 +97,12 @@ PASS2_WEIGHT = 2.0
 PASS2_D1_WEIGHT = 0.0
 #: Smoothing of the time map, seconds.
 TIMEMAP_SIGMA_S = 0.2
+#: The time map weighed by the expected path's spread (:mod:`splicer.transfer.trend`): the
+#: tempo (hands seconds per body second) drifts as a random walk whose variance grows by this
+#: much per second of body time.  Chosen on tuning seeds 0-3 (both takes) between 0.004, 0.0075
+#: and 0.015 (benchmarks/HISTORY.md, 0.12.0): 0.004 helps the imitation most and costs *all*;
+#: 0.0075-0.015 help or keep every scenario measured.  0 switches the stage off.
+TEMPO_VAR_PER_S = 0.01
 #: Median merge: frames blended each side of a jump.
 BLEND_WINDOW_FRAMES = 4
 #: Rate of the coarse guide pass of long takes, frames per second.

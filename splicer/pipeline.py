@@ -1,5 +1,5 @@
-"""The whole job as stages: load -> rig -> markers -> align -> time map -> transfer -> cross-check ->
-risk -> coverage edges -> report.
+"""The whole job as stages: load -> rig -> markers -> align -> time map -> cross-check -> risk ->
+coverage edges -> time map weighed by the estimated error -> transfer -> report.
 
 :func:`splice` composes the stages of :mod:`splicer.stages` (one module each); each stage is
 a function with a typed, frozen result, usable on its own (notebooks, other tools), and
@@ -8,6 +8,8 @@ in :mod:`splicer.options`.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 from .options import SpliceOptions, resolve_options
 # the private names are used by splice-markers, pairing, the plot and the tests
@@ -20,10 +22,10 @@ from .stages.log import Log
 from .stages.markers import SideMarkers, _align_up, side_markers  # noqa: F401
 from .stages.report import LOW_CONFIDENCE_S, SideResult, SpliceResult, _coverage_report, build_report  # noqa: F401
 from .stages.rig import Conditioned, Rig, condition_hands, find_rig
-from .stages.transfer import Transfer, check_fingers, time_map, transfer_side
+from .stages.transfer import Transfer, check_fingers, time_map, transfer_side, trend_time_maps
 
 __all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
-           "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "transfer_side",
+           "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "trend_time_maps", "transfer_side",
            "check_fingers", "cross_check", "hands_disagreement", "estimate_risk", "coverage_edges", "mark_coverage_edges", "build_report",
            "splice"]
 
@@ -70,16 +72,16 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     offset_s = opts.offset_s if opts.offset_s is not None else inputs.config.offset_s
     marks = {s: side_markers(inputs, rig, s, log) for s in rig.sides}
     aligned = align_pair(marks, opts, log, ends=ends, offset_s=offset_s)  # both arms; one noise decision
-    for s in rig.sides:
-        markers, alignment = marks[s], aligned[s]
-        tm = time_map(alignment, markers, opts)
-        transfer = transfer_side(out, inputs, rig, s, alignment, tm, opts, log, pins=markers.pins)
-        sanity = check_fingers(transfer, s, inputs, rig, tm, checked.report["handedness"], log)
-        out = transfer.motion
-        sides[s] = SideResult(s, tm, markers, alignment, transfer.joints, {**transfer.extra, **sanity})
+    sides = {s: SideResult(s, time_map(aligned[s], marks[s], opts), marks[s], aligned[s]) for s in rig.sides}
     sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
     sides = estimate_risk(sides)  # every signal weighed together: the error's 95th percentile per frame
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames
+    sides = trend_time_maps(sides, opts)  # each map weighed by its estimated error, the tempo drifting smoothly
+    for s, r in sides.items():
+        transfer = transfer_side(out, inputs, rig, s, r.alignment, r.hands_frame, opts, log, pins=r.pins)
+        sanity = check_fingers(transfer, s, inputs, rig, r.hands_frame, checked.report["handedness"], log)
+        out = transfer.motion
+        sides[s] = replace(r, joints=transfer.joints, extra={**transfer.extra, **sanity})
     report = build_report(inputs, opts, sides, log,
                           extra={**checked.report, "up": {k: u.as_dict() for k, u in rig.up.items()}})
     log.progress("done", 1.0)

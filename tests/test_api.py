@@ -81,8 +81,14 @@ def test_stages_compose_like_splice(sample):
     assert markers.hands.n_frames == (hands.n_frames - 1) // 2 + 1
     aln = splicer.align_side(markers, opts)
     tm = splicer.time_map(aln, markers, opts)
+    sides = {"right": splicer.SideResult("right", tm, markers, aln)}
+    sides = splicer.mark_coverage_edges(splicer.estimate_risk(splicer.cross_check(sides)))
+    weighed = splicer.trend_time_maps(sides, opts)["right"].hands_frame
     whole = splicer.splice(body, hands, options=opts)
-    np.testing.assert_allclose(tm, whole.sides["right"].hands_frame)
+    np.testing.assert_allclose(weighed, whole.sides["right"].hands_frame)
+    # the last stage moved the map (it is not the identity here) and kept it monotone
+    assert np.nanmax(np.abs(weighed - tm)) > 0.5
+    assert np.all(np.diff(weighed[np.isfinite(weighed)]) >= 0)
 
 
 def test_frame_spaces_worked_example():

@@ -15,7 +15,7 @@ from .log import Log
 from .load import Inputs
 from .align import Alignment
 
-__all__ = ['Transfer', 'time_map', 'check_fingers', 'transfer_side']
+__all__ = ['Transfer', 'time_map', 'trend_time_maps', 'check_fingers', 'transfer_side']
 
 
 # ---------------------------------------------------------------- stage 5: time map
@@ -45,6 +45,58 @@ def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) ->
     else:
         tm[a:b + 1] = np.clip(pin_constraints(hands_frames, pins), 0, last)
     return tm
+
+
+def trend_time_maps(sides: dict, opts: SpliceOptions) -> dict:
+    """Stage 6d, the time maps weighed by the alignment's uncertainty (:mod:`splicer.transfer.trend`).
+
+    Each side's smooth time map is replaced by the most likely course of the hands time given
+    how widely the near-best paths spread at each frame (the confidence's ``spread_frames``, the
+    expected path's standard deviation) and a tempo that drifts by ``opts.tempo_var_per_s``:
+    it keeps the map where the spread is small and bridges the uncertain stretches with the
+    tempo of the sure frames around them; then it is made monotone again and every pin held
+    (:func:`splicer.transfer.timemap.monotone_pinned`).  Measured on the ground-truth protocol
+    (README *Accuracy*).  It runs after the confidence stages, whose estimates the report keeps.
+
+    Parameters
+    ----------
+    sides : dict of str -> SideResult
+        After :func:`splicer.stages.coverage.mark_coverage_edges`.
+    opts : SpliceOptions
+        ``merge="median"`` (its rotations come from the path, not the map), or
+        ``tempo_var_per_s=0``: the sides unchanged.
+
+    Returns
+    -------
+    dict of str -> SideResult
+        ``hands_frame`` replaced where the side has a confidence; the confidence is kept.
+    """
+    from dataclasses import replace
+
+    from ..transfer.timemap import monotone_pinned
+    from ..transfer.trend import trend_time_map
+
+    if opts.merge != "timemap" or not opts.tempo_var_per_s:
+        return dict(sides)
+    out = {}
+    for s, r in sides.items():
+        conf = r.alignment.confidence
+        if conf is None:
+            out[s] = r
+            continue
+        sp = r.markers.spaces
+        # the spread, not the estimated error: it is a smooth function of the input (the risk
+        # model's signals include each arm's best path, which a float32 round trip can flip)
+        sd_s = np.asarray(conf.spread_frames, dtype=np.float64) / sp.body_fps  # common frames: the body rate
+        tm = trend_time_map(r.hands_frame, sd_s, body_fps=sp.body_fps, hands_fps=sp.hands_fps,
+                            tempo_var_per_s=opts.tempo_var_per_s)
+        ok = np.flatnonzero(np.isfinite(tm))
+        if len(ok):
+            a, b = int(ok[0]), int(ok[-1])  # one covered range (Alignment.covered)
+            pins = [(p.body - a, float(p.hands), float(p.tolerance)) for p in r.markers.pins if a <= p.body <= b]
+            tm[a:b + 1] = monotone_pinned(tm[a:b + 1], last=sp.n_hands - 1, pins=pins)
+        out[s] = replace(r, hands_frame=tm)
+    return out
 
 
 # ---------------------------------------------------------------- stage 6: transfer

@@ -18,7 +18,7 @@ from ..filters import gaussian_filter1d
 from ..model.rotations import quat_hemisphere, quat_median, quat_slerp
 from .sampling import sample_rotations
 
-__all__ = ["smooth_time_map", "median_rotations", "blend_jumps", "pin_constraints"]
+__all__ = ["smooth_time_map", "monotone_pinned", "median_rotations", "blend_jumps", "pin_constraints"]
 
 
 def pin_constraints(time_map: np.ndarray, pins) -> np.ndarray:
@@ -96,7 +96,18 @@ def smooth_time_map(per_frame: np.ndarray, *, sigma_frames: float, last: float, 
         right = 2 * tm[-1] - tm[-pad - 1:-1][::-1]
         ext = np.concatenate([left, tm, right])
         tm = gaussian_filter1d(ext, sigma_frames, mode="nearest")[pad:pad + len(per_frame)]
-    tm = np.clip(np.maximum.accumulate(tm), 0.0, last)
+    return monotone_pinned(tm, last=last, pins=pins)
+
+
+def monotone_pinned(time_map: np.ndarray, *, last: float, pins=()) -> np.ndarray:
+    """A smoothed time map made non-decreasing, kept within ``[0, last]`` and every pin held
+    (:func:`pin_constraints`): how :func:`smooth_time_map` and the trend stage
+    (:func:`splicer.stages.transfer.trend_time_maps`) finish.
+
+    >>> monotone_pinned(np.array([0.0, 2.0, 1.0, 5.0]), last=4.0, pins=[(1, 1.0, 0.0)]).tolist()
+    [0.0, 1.0, 1.5, 4.0]
+    """
+    tm = np.clip(np.maximum.accumulate(np.asarray(time_map, dtype=np.float64)), 0.0, last)
     return np.clip(pin_constraints(tm, list(pins)), 0.0, last)
 
 

@@ -1,0 +1,149 @@
+"""The time map weighed by the alignment's own uncertainty: a local-trend smoother.
+
+The expected path (pass 1) gives a hands time for every body frame and, with it, how widely
+the near-best paths spread there (:class:`splicer.align.posterior.Posterior`: a standard
+deviation).  Where the spread is small the time map is already right to a few milliseconds;
+where it is large (a noisy second performance, a still arm) the path wanders around the
+truth, and what is known of the truth there is that the performers' tempo changes smoothly.
+:func:`trend_time_map` combines the two as a state-space model: the state is the hands time
+``x`` (seconds) and the local tempo ``v`` (hands seconds per body second), the tempo drifts as
+a random walk whose variance grows by ``tempo_var_per_s`` per second of body time, and each
+body frame observes ``x`` with the standard deviation the spread says.
+The Rauch-Tung-Striebel smoother gives the mean of ``x`` given every observation: it follows
+the time map where the estimate is small and bridges the uncertain stretches with the tempo
+the confident frames around them imply.
+
+Units are in the names: ``_s`` seconds, ``_per_s`` per second of body time; ``hands`` /
+``body`` frames are 0-based, fractional where the map is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["trend_time_map", "ERROR_FLOOR_S"]
+
+#: No frame is trusted to better than this (seconds of hands time): the expected path's own
+#: resolution, a fraction of a frame.
+ERROR_FLOOR_S = 0.005
+#: Prior standard deviation of the tempo at the first observed frame (hands s per body s):
+#: loose next to any real tempo change, so the data decide.
+_TEMPO_PRIOR = 1.0
+#: Prior variance of the hands time at the first frame of a run (seconds squared): none to speak of.
+_X_PRIOR = 1e4
+
+
+@njit(cache=True)
+def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against tests/references.py
+    """Rauch-Tung-Striebel smoother of a local-linear-trend model (plain loops).
+
+    ``y[i]`` observed with variance ``r[i]`` (``r[i] < 0``: not observed); state (x, v),
+    ``x[i+1] = x[i] + dt v[i]``, ``v`` a random walk of variance density ``q``.  Returns the
+    smoothed ``x``.  The prior at index 0 is ``x = y[0]`` (loosely: ``_X_PRIOR``), ``v = v0``."""
+    n = y.shape[0]
+    xf = np.empty(n)
+    vf = np.empty(n)
+    pf = np.empty((n, 3))  # filtered covariance: p00, p01, p11
+    pp = np.empty((n, 3))  # predicted covariance
+    xp = np.empty(n)
+    vp = np.empty(n)
+    q00, q01, q11 = q * dt * dt * dt / 3.0, q * dt * dt / 2.0, q * dt
+    x, v = y[0], v0
+    a, b, c = _X_PRIOR, 0.0, p_v0
+    for i in range(n):
+        if i > 0:
+            x = x + dt * v
+            a, b, c = a + 2.0 * dt * b + dt * dt * c + q00, b + dt * c + q01, c + q11
+        xp[i], vp[i] = x, v
+        pp[i, 0], pp[i, 1], pp[i, 2] = a, b, c
+        if r[i] >= 0.0:
+            s = a + r[i]
+            k0, k1 = a / s, b / s
+            e = y[i] - x
+            x, v = x + k0 * e, v + k1 * e
+            a, b, c = a * (r[i] / s), b * (r[i] / s), c - k1 * b  # (1 - k0) a, (1 - k0) b without cancelling
+        xf[i], vf[i] = x, v
+        pf[i, 0], pf[i, 1], pf[i, 2] = a, b, c
+    xs = xf.copy()
+    vs = vf.copy()
+    for i in range(n - 2, -1, -1):
+        # C = Pf[i] F^T inv(Pp[i+1]), F = [[1, dt], [0, 1]]
+        f00 = pf[i, 0] + dt * pf[i, 1]
+        f01 = pf[i, 1]
+        f10 = pf[i, 1] + dt * pf[i, 2]
+        f11 = pf[i, 2]
+        a1, b1, c1 = pp[i + 1, 0], pp[i + 1, 1], pp[i + 1, 2]
+        det = a1 * c1 - b1 * b1
+        i00, i01, i11 = c1 / det, -b1 / det, a1 / det
+        c00 = f00 * i00 + f01 * i01
+        c01 = f00 * i01 + f01 * i11
+        c10 = f10 * i00 + f11 * i01
+        c11 = f10 * i01 + f11 * i11
+        dx, dv = xs[i + 1] - xp[i + 1], vs[i + 1] - vp[i + 1]
+        xs[i] = xf[i] + c00 * dx + c01 * dv
+        vs[i] = vf[i] + c10 * dx + c11 * dv
+    return xs
+
+
+def trend_time_map(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var_per_s: float,
+                   floor_s: float = ERROR_FLOOR_S) -> np.ndarray:
+    """The time map's most likely course given each frame's estimated error and a smooth tempo.
+
+    Parameters
+    ----------
+    hands_frame : np.ndarray [shape=(n,)]
+        Hands frame per body frame (fractional); NaN where the body frame is uncovered.
+        Each run of covered frames is smoothed on its own.
+    sd_s : np.ndarray [shape=(n,)]
+        Standard deviation of each body frame's hands time, seconds (the expected path's
+        spread); NaN or inf: the frame says nothing (it is bridged).
+    body_fps, hands_fps : float
+        Frame rates, frames per second.
+    tempo_var_per_s : float
+        How fast the tempo (hands seconds per body second) may drift: the variance its random
+        walk gains per second of body time (> 0).
+    floor_s : float
+        The smallest standard deviation a frame is taken to have, seconds.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,)]
+        Smoothed hands frames, NaN where ``hands_frame`` is; not yet monotone or pinned
+        (:func:`splicer.stages.transfer.trend_time_maps` does both).
+
+    Examples
+    --------
+    A straight map with one wild frame whose spread is a second comes back to the line:
+
+    >>> hf = np.arange(10.0) * 2
+    >>> hf[5] = 30.0
+    >>> sd = np.full(10, 0.01); sd[5] = 1.0
+    >>> out = trend_time_map(hf, sd, body_fps=30, hands_fps=60, tempo_var_per_s=0.01)
+    >>> bool(abs(out[5] - 10.0) < 0.05)
+    True
+    """
+    hf = np.asarray(hands_frame, dtype=np.float64)
+    est = np.asarray(sd_s, dtype=np.float64)
+    if hf.ndim != 1 or est.shape != hf.shape:
+        raise ValueError(f"hands_frame and sd_s need one shape (n,), got {hf.shape} and {est.shape}")
+    for name, v in (("body_fps", body_fps), ("hands_fps", hands_fps), ("tempo_var_per_s", tempo_var_per_s),
+                    ("floor_s", floor_s)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be positive and finite, got {v!r}")
+    out = np.full(hf.shape, np.nan)
+    ok = np.isfinite(hf)
+    dt = 1.0 / float(body_fps)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):  # runs [a, b) of covered frames
+        y = hf[a:b] / float(hands_fps)
+        e = est[a:b]
+        seen = np.isfinite(e)
+        if b - a < 3 or not seen.any():
+            out[a:b] = hf[a:b]
+            continue
+        sd = np.maximum(np.where(seen, e, 1.0), floor_s)
+        r = np.where(seen, sd * sd, -1.0)
+        v0 = (y[-1] - y[0]) / ((b - a - 1) * dt)
+        out[a:b] = _rts(y, r, dt, float(tempo_var_per_s), v0, _TEMPO_PRIOR ** 2) * float(hands_fps)
+    return out

@@ -1,5 +1,5 @@
 """The whole job as stages: load -> rig -> markers -> align -> time map -> cross-check -> risk ->
-coverage edges -> time map weighed by the estimated error -> transfer -> report.
+coverage edges -> time map weighed by the expected path's spread -> transfer -> report.
 
 :func:`splice` composes the stages of :mod:`splicer.stages` (one module each); each stage is
 a function with a typed, frozen result, usable on its own (notebooks, other tools), and
@@ -76,7 +76,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
     sides = estimate_risk(sides)  # every signal weighed together: the error's 95th percentile per frame
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames
-    sides = trend_time_maps(sides, opts)  # each map weighed by its estimated error, the tempo drifting smoothly
+    sides = trend_time_maps(sides, opts)  # each map weighed by the expected path's spread, the tempo drifting smoothly
     for s, r in sides.items():
         transfer = transfer_side(out, inputs, rig, s, r.alignment, r.hands_frame, opts, log, pins=r.pins)
         sanity = check_fingers(transfer, s, inputs, rig, r.hands_frame, checked.report["handedness"], log)

@@ -20,6 +20,16 @@ __all__ = ['Transfer', 'time_map', 'trend_time_maps', 'check_fingers', 'transfer
 
 # ---------------------------------------------------------------- stage 5: time map
 
+def _covered_span(alignment: Alignment) -> tuple[int, int]:
+    """First and last body frame the hands cover (inclusive): the whole body take unless open ends left some out."""
+    return alignment.covered if alignment.covered is not None else (0, len(alignment.per_frame) - 1)
+
+
+def _span_pins(pins, a: int, b: int) -> list:
+    """The pins inside body frames ``a..b`` as (frame from ``a``, hands frame, tolerance), for the map of that span."""
+    return [(p.body - a, float(p.hands), float(p.tolerance)) for p in pins if a <= p.body <= b]
+
+
 def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) -> np.ndarray:
     """Hands-file frame for each body frame: smoothed, monotone, every pin held within its T.
 
@@ -34,9 +44,9 @@ def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) ->
 
     sp = markers.spaces
     n = len(alignment.per_frame)
-    a, b = alignment.covered if alignment.covered is not None else (0, n - 1)
+    a, b = _covered_span(alignment)
     hands_frames = sp.common_to_hands(alignment.per_frame[a:b + 1])
-    pins = [(p.body - a, float(p.hands), float(p.tolerance)) for p in markers.pins if a <= p.body <= b]
+    pins = _span_pins(markers.pins, a, b)
     last = sp.n_hands - 1
     tm = np.full(n, np.nan)
     if opts.merge == "timemap":  # both keep every pin within its window (pin_constraints)
@@ -90,11 +100,8 @@ def trend_time_maps(sides: dict, opts: SpliceOptions) -> dict:
         sd_s = np.asarray(conf.spread_frames, dtype=np.float64) / sp.body_fps  # common frames: the body rate
         tm = trend_time_map(r.hands_frame, sd_s, body_fps=sp.body_fps, hands_fps=sp.hands_fps,
                             tempo_var_per_s=opts.tempo_var_per_s)
-        ok = np.flatnonzero(np.isfinite(tm))
-        if len(ok):
-            a, b = int(ok[0]), int(ok[-1])  # one covered range (Alignment.covered)
-            pins = [(p.body - a, float(p.hands), float(p.tolerance)) for p in r.markers.pins if a <= p.body <= b]
-            tm[a:b + 1] = monotone_pinned(tm[a:b + 1], last=sp.n_hands - 1, pins=pins)
+        a, b = _covered_span(r.alignment)
+        tm[a:b + 1] = monotone_pinned(tm[a:b + 1], last=sp.n_hands - 1, pins=_span_pins(r.markers.pins, a, b))
         out[s] = replace(r, hands_frame=tm)
     return out
 

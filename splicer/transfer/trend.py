@@ -88,7 +88,7 @@ def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against 
 
 def trend_time_map(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var_per_s: float,
                    floor_s: float = ERROR_FLOOR_S) -> np.ndarray:
-    """The time map's most likely course given each frame's estimated error and a smooth tempo.
+    """The time map's most likely course given each frame's spread and a smooth tempo.
 
     Parameters
     ----------
@@ -124,9 +124,9 @@ def trend_time_map(hands_frame, sd_s, *, body_fps: float, hands_fps: float, temp
     True
     """
     hf = np.asarray(hands_frame, dtype=np.float64)
-    est = np.asarray(sd_s, dtype=np.float64)
-    if hf.ndim != 1 or est.shape != hf.shape:
-        raise ValueError(f"hands_frame and sd_s need one shape (n,), got {hf.shape} and {est.shape}")
+    sd_all = np.asarray(sd_s, dtype=np.float64)
+    if hf.ndim != 1 or sd_all.shape != hf.shape:
+        raise ValueError(f"hands_frame and sd_s need one shape (n,), got {hf.shape} and {sd_all.shape}")
     for name, v in (("body_fps", body_fps), ("hands_fps", hands_fps), ("tempo_var_per_s", tempo_var_per_s),
                     ("floor_s", floor_s)):
         if not (np.isfinite(v) and v > 0):
@@ -137,7 +137,7 @@ def trend_time_map(hands_frame, sd_s, *, body_fps: float, hands_fps: float, temp
     edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
     for a, b in zip(edges[::2], edges[1::2]):  # runs [a, b) of covered frames
         y = hf[a:b] / float(hands_fps)
-        e = est[a:b]
+        e = sd_all[a:b]
         seen = np.isfinite(e)
         if b - a < 3 or not seen.any():
             out[a:b] = hf[a:b]

@@ -16,8 +16,8 @@ Stages (each returns a typed result; :func:`splice` composes them)
     :func:`load_inputs` -> :func:`find_rig` -> :func:`condition_hands` -> :func:`side_markers`
     -> :func:`align_side` (both sides: :func:`align_pair`, with one noise decision,
     :func:`phase_smoothing`) -> :func:`time_map` -> on the sides' :class:`SideResult`:
-    :func:`cross_check` -> :func:`estimate_risk` -> :func:`mark_coverage_edges` ->
-    :func:`trend_time_maps` -> :func:`transfer_side` -> :func:`check_fingers` -> :func:`build_report`.
+    :func:`cross_check` -> :func:`trend_time_maps` -> :func:`estimate_risk` ->
+    :func:`mark_coverage_edges` -> :func:`transfer_side` -> :func:`check_fingers` -> :func:`build_report`.
 The constraints file
     :func:`read_config`, :func:`parse_config`, :class:`SpliceConfig`, :class:`Pin`.
 Skeletons
@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.12.0"
+__version__ = "0.13.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)

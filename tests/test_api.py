@@ -82,11 +82,15 @@ def test_stages_compose_like_splice(sample):
     aln = splicer.align_side(markers, opts)
     tm = splicer.time_map(aln, markers, opts)
     sides = {"right": splicer.SideResult("right", tm, markers, aln)}
-    sides = splicer.mark_coverage_edges(splicer.estimate_risk(splicer.cross_check(sides)))
-    weighed = splicer.trend_time_maps(sides, opts)["right"].hands_frame
+    sides = splicer.trend_time_maps(splicer.cross_check(sides), opts)
+    weighed = sides["right"].hands_frame
+    sides = splicer.mark_coverage_edges(splicer.estimate_risk(sides))
     whole = splicer.splice(body, hands, options=opts)
     np.testing.assert_allclose(weighed, whole.sides["right"].hands_frame)
-    # the last stage moved the map (it is not the identity here) and kept it monotone
+    for k in ("est_error_s", "confidence"):
+        np.testing.assert_allclose(getattr(sides["right"].alignment.confidence, k),
+                                   getattr(whole.sides["right"].alignment.confidence, k))
+    # the trend stage moved the map (it is not the identity here) and kept it monotone
     assert np.nanmax(np.abs(weighed - tm)) > 0.5
     assert np.all(np.diff(weighed[np.isfinite(weighed)]) >= 0)
 

@@ -140,9 +140,11 @@ def test_one_side_is_left_alone(sample):
 def test_the_sample_confidence_is_honest(sample):
     """The sample's true time map is known: of its body frames whose true error exceeds 0.1 s,
     most are flagged, fewer of those within 0.05 s are.  Measured with one pass 1 for both arms
-    (the default) and the risk model's 95th percentile (stages.risk, fitted on the scenario
-    protocol, not on this sample): 84 % / 21 % (left) and 80 % / 20 % (right), of 92 and 420
-    frames (mean error 0.048 s); with the larger of the spread and the disagreement (0.10.0):
+    (the default), the trend stage and the risk model's 95th percentile (stages.risk, fitted on
+    the scenario protocol, not on this sample): 100 % / 22 % on each side, of 21 and 451 frames
+    (mean error 0.035 s; 0.12.0's model: 100 % / 26 % and 25 %); before the trend stage (0.11.0):
+    84 % / 21 % (left) and 80 % / 20 % (right), of 92 and 420 frames (mean error 0.048 s); with
+    the larger of the spread and the disagreement (0.10.0):
     89 % / 30 % on both sides; each
     side alone: 82 % / 14 % and 78 % / 20 % (mean error 0.085 / 0.091 s), and 39 % / 44 %,
     20 % / 24 % with the cost landscape's threshold rule before the hands were compared.  The

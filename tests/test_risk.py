@@ -100,7 +100,8 @@ def _signals(n=40, spread=0.02):
     rel = np.zeros((n, 4, 3))
     rel[:, :, 0] = np.sin(np.linspace(0, 6, n))[:, None]
     return risk_signals(spread_s=np.full(n, spread), disagreement_s=z, evidence_s=np.full(n, spread), own_s=z,
-                        other_own_s=z, body_relative=rel, other_body_relative=rel * 2)
+                        other_own_s=z, trend_sd_s=np.full(n, spread / 2), trend_shift_s=z, body_relative=rel,
+                        other_body_relative=rel * 2)
 
 
 def test_risk_signals_and_features():
@@ -114,12 +115,15 @@ def test_risk_signals_and_features():
     feats = dict(risk_features(sig, unc, 30.0))
     assert tuple(feats) == feature_names()
     np.testing.assert_allclose(feats["log_spread"], np.log(0.02 + LOG_FLOOR_S))
+    np.testing.assert_allclose(feats["log_trend_sd"], np.log(0.01 + LOG_FLOOR_S))
+    np.testing.assert_allclose(feats["trend_shift_level"], 0.0)
     np.testing.assert_allclose(feats["edge"][:6], [0, 0, 0, 1 / 30, 2 / 30, 3 / 30])
     assert feats["edge"].max() == pytest.approx(37 / 30)
     np.testing.assert_array_equal(feats["edge_in"][:14], [1] * 13 + [0])  # within 1/3 s: 10 frames past the edge
     with pytest.raises(ValueError, match="shape"):
         risk_signals(spread_s=np.zeros(3), disagreement_s=np.zeros(4), evidence_s=np.zeros(3), own_s=np.zeros(3),
-                     other_own_s=np.zeros(3), body_relative=np.zeros((3, 4, 3)), other_body_relative=np.zeros((3, 4, 3)))
+                     other_own_s=np.zeros(3), trend_sd_s=np.zeros(3), trend_shift_s=np.zeros(3),
+                     body_relative=np.zeros((3, 4, 3)), other_body_relative=np.zeros((3, 4, 3)))
 
 
 def test_risk_score_worked_and_checks_features():
@@ -180,6 +184,10 @@ def test_stage_leaves_what_it_cannot_read(sample):
     alone = replace(right, alignment=replace(right.alignment, own=None))  # each arm its own pass 1
     out = estimate_risk({"left": left, "right": alone})
     assert out["left"] is left and out["right"] is alone
+    unsmoothed = replace(right, trend=None)  # the trend stage has not run on this side
+    out = estimate_risk({"left": left, "right": unsmoothed})
+    assert out["right"] is unsmoothed
+    np.testing.assert_array_equal(out["left"].alignment.confidence.est_error_s, left.alignment.confidence.est_error_s)
 
 
 def _load_fit():

@@ -13,15 +13,16 @@ import pytest
 
 import splicer
 from splicer.options import SpliceOptions
-from splicer.transfer.trend import _rts, trend_time_map
+from splicer.transfer.trend import _rts, trend_fit, trend_time_map
 
 MOTIONS = Path(__file__).resolve().parents[1] / "motions"
 
 
-def dense_posterior_mean(y, r, dt, q, v0, p_v0, x_prior):
+def dense_posterior(y, r, dt, q, v0, p_v0, x_prior):
     """The smoother's answer computed the slow way: the states' joint Gaussian prior built
     frame by frame (s[k+1] = F s[k] + e, e ~ N(0, Q)), then conditioned on the observed
-    frames in one linear solve.  No recursion of the Kalman filter is shared."""
+    frames in one linear solve.  No recursion of the Kalman filter is shared.  Returns the
+    posterior mean and variance of each x[k]."""
     n = len(y)
     F = np.array([[1.0, dt], [0.0, 1.0]])
     Q = q * np.array([[dt ** 3 / 3, dt ** 2 / 2], [dt ** 2 / 2, dt]])
@@ -38,7 +39,8 @@ def dense_posterior_mean(y, r, dt, q, v0, p_v0, x_prior):
     mean = y[0] + v0 * dt * np.arange(n)
     seen = r >= 0
     S = cov[np.ix_(seen, seen)] + np.diag(r[seen])
-    return mean + cov[:, seen] @ np.linalg.solve(S, y[seen] - mean[seen])
+    post_var = np.diag(cov) - np.einsum("ij,ji->i", cov[:, seen], np.linalg.solve(S, cov[seen, :]))
+    return mean + cov[:, seen] @ np.linalg.solve(S, y[seen] - mean[seen]), post_var
 
 
 @pytest.mark.parametrize("q, dt", [(0.01, 1 / 30), (1.0, 1 / 30), (0.003, 1 / 120)])
@@ -49,11 +51,15 @@ def test_kernel_matches_the_dense_reference(rng, q, dt):
     r[rng.random(n) < 0.3] = -1.0  # frames that say nothing
     r[0] = 1e-6
     v0 = 1.3
-    got = _rts(y, r, dt, q, v0, 1.0)
-    want = dense_posterior_mean(y, r, dt, q, v0, 1.0, 1e4)
+    got, got_var = _rts(y, r, dt, q, v0, 1.0)
+    want, want_var = dense_posterior(y, r, dt, q, v0, 1.0, 1e4)
     # the dense solve carries the loose prior (1e4 s^2) against millisecond errors: agreement to 1e-6 s
     np.testing.assert_allclose(got, want, rtol=0, atol=5e-6)
     assert np.max(np.abs(got - y)[r >= 0]) > 1e-3  # and the answer is not the data themselves
+    # the variances (1e-10 .. 1e-4 s^2) to a few per cent of the smallest, where the loose
+    # prior's cancellation leaves the dense solve
+    np.testing.assert_allclose(np.sqrt(got_var), np.sqrt(want_var), rtol=1e-3, atol=2e-6)
+    assert np.all(got_var[r >= 0] <= r[r >= 0] * (1 + 1e-6))  # never less sure than its own observation
 
 
 def test_a_straight_map_stays_straight():
@@ -99,6 +105,27 @@ def test_uncovered_frames_stay_nan_and_runs_are_separate():
     assert abs(out2[8] - hf[8]) < 1e-6
 
 
+def test_fit_reports_its_uncertainty():
+    """The smoother's standard deviation: below a sure frame's own 10 ms there (its neighbours
+    agree), larger across a stretch of unsure frames and largest in its middle (measured: 3.1 ms
+    among the sure frames, 7.0 ms at frame 22), NaN where uncovered; the shift is how far the
+    smoothed map lies from the map."""
+    hf = np.arange(40.0) * 2
+    hf[20:25] += 12.0  # an excursion the unsure frames carry
+    hf[35:] = np.nan
+    sd = np.full(40, 0.01)
+    sd[15:30] = 0.5
+    fit = trend_fit(hf, sd, body_fps=30, hands_fps=60, tempo_var_per_s=0.01)
+    sure = np.r_[0:15, 30:35]
+    assert np.all(fit.sd_s[sure] < 0.01)
+    assert np.argmax(fit.sd_s[:35]) == 22 and fit.sd_s[22] > 2 * fit.sd_s[5:10].max()
+    assert np.all(np.isnan(fit.sd_s[35:])) and np.all(np.isnan(fit.shift_s[35:]))
+    np.testing.assert_allclose(fit.shift_s[:35], np.abs(fit.hands_frame - hf)[:35] / 60)
+    assert fit.shift_s[20:25].min() > 0.15  # the excursion (0.2 s) smoothed away
+    np.testing.assert_array_equal(fit.hands_frame, trend_time_map(hf, sd, body_fps=30, hands_fps=60,
+                                                                  tempo_var_per_s=0.01))
+
+
 def test_wrapper_validates():
     with pytest.raises(ValueError, match="one shape"):
         trend_time_map(np.zeros(4), np.zeros(5), body_fps=30, hands_fps=60, tempo_var_per_s=0.01)
@@ -110,7 +137,7 @@ def test_wrapper_validates():
 
 @pytest.fixture(scope="module")
 def sample_stages():
-    """The sample's sides after the confidence stages, before the trend stage."""
+    """The sample's sides after the cross-check, before the trend stage."""
     body, hands = splicer.read_bvh(MOTIONS / "sample_body.bvh"), splicer.read_bvh(MOTIONS / "sample_hands.bvh")
     opts = SpliceOptions()
     inputs = splicer.load_inputs(body, hands, MOTIONS / "sample_sync.yaml")
@@ -120,14 +147,18 @@ def sample_stages():
     aligned = splicer.align_pair(marks, opts)
     sides = {s: splicer.SideResult(s, splicer.time_map(aligned[s], marks[s], opts), marks[s], aligned[s])
              for s in rig.sides}
-    return splicer.mark_coverage_edges(splicer.estimate_risk(splicer.cross_check(sides)))
+    return splicer.cross_check(sides)
 
 
 def test_stage_switches(sample_stages):
+    on = splicer.trend_time_maps(sample_stages, SpliceOptions())
     for opts in (SpliceOptions(merge="median"), SpliceOptions(tempo_var_per_s=0)):
         out = splicer.trend_time_maps(sample_stages, opts)
         for s, r in sample_stages.items():
             assert out[s].hands_frame is r.hands_frame
+            # the smoother still runs for the risk stage's signals, with the default tempo
+            np.testing.assert_array_equal(out[s].trend.sd_s, on[s].trend.sd_s)
+            assert r.trend is None
     no_conf = {s: replace(r, alignment=replace(r.alignment, confidence=None)) for s, r in sample_stages.items()}
     out = splicer.trend_time_maps(no_conf, SpliceOptions())
     assert all(out[s] is no_conf[s] for s in no_conf)

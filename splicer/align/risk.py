@@ -1,8 +1,9 @@
 """The alignment error's upper quantile per body frame, from the alignment's own evidence.
 
 Each signal the alignment has about a body frame (the expected path's spread, how far each
-arm's own path departs from the shared one, the sides' disagreement, how fast the body's arms
-move, how near the frame is to where the hands' material starts or stops) says something about
+arm's own path departs from the shared one, the sides' disagreement, how sure the time map's
+smoother is and how far it moved the map, how fast the body's arms move, how near the frame
+is to where the hands' material starts or stops) says something about
 whether the frame is off, and none says it alone: a wandering arm's path flags good frames,
 a spread of zero misses a confidently wrong stretch.  :func:`error_quantile` weighs them
 together with an ordinal logistic model fitted on the ground-truth protocol
@@ -35,9 +36,10 @@ __all__ = ["RiskModel", "SIGNALS", "WINDOWS_S", "risk_signals", "risk_features",
 
 #: The per-frame signals the model reads, in order (:func:`risk_signals`): seconds, except the
 #: speeds (relative to their take's root-mean-square).
-SIGNALS = ("spread", "disagreement", "evidence", "own", "other_own", "speed", "other_speed", "min_speed")
+SIGNALS = ("spread", "disagreement", "evidence", "own", "other_own", "trend_sd", "trend_shift", "speed", "other_speed",
+           "min_speed")
 #: Signals entered as ``log(x + LOG_FLOOR_S)``.
-LOG_SIGNALS = frozenset({"spread", "disagreement", "evidence", "own", "other_own"})
+LOG_SIGNALS = frozenset({"spread", "disagreement", "evidence", "own", "other_own", "trend_sd", "trend_shift"})
 #: Added to a seconds signal before its logarithm (a quarter of a 30 fps frame).
 LOG_FLOOR_S = 1.0 / 120.0
 #: Each signal also enters as its maximum and its mean over centred windows of these lengths.
@@ -158,8 +160,8 @@ def _speed(relative: np.ndarray) -> np.ndarray:
     return v / rms if rms > 0 else np.zeros_like(v)
 
 
-def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, body_relative,
-                 other_body_relative) -> dict:
+def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, trend_sd_s, trend_shift_s,
+                 body_relative, other_body_relative) -> dict:
     """The model's per-frame signals (:data:`SIGNALS`) of one side.
 
     Parameters
@@ -172,6 +174,9 @@ def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, bo
         The estimated error from those alone (their larger, with any floor), seconds.
     own_s, other_own_s : np.ndarray [shape=(n,)]
         Seconds between the shared expected path and this arm's own path, the other arm's.
+    trend_sd_s, trend_shift_s : np.ndarray [shape=(n,)]
+        The time map's smoother (:class:`splicer.transfer.trend.TrendFit`): the standard
+        deviation of the hands time it gives, and how far it moved the map, seconds.
     body_relative, other_body_relative : np.ndarray [shape=(n, M, 3)]
         The body's markers of this arm and of the other, relative to their shoulder.
 
@@ -181,7 +186,7 @@ def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, bo
         NaN (uncovered, or not measured) becomes 0.
     """
     s = {"spread": spread_s, "disagreement": disagreement_s, "evidence": evidence_s, "own": own_s,
-         "other_own": other_own_s}
+         "other_own": other_own_s, "trend_sd": trend_sd_s, "trend_shift": trend_shift_s}
     out = {k: np.nan_to_num(np.asarray(v, dtype=np.float64), nan=0.0, posinf=0.0) for k, v in s.items()}
     n = len(out["spread"])
     for k, v in out.items():

@@ -1,4 +1,4 @@
-"""Stage 6d, coverage edges: where the hands' material starts or stops inside the body.
+"""Stage 6e, coverage edges: where the hands' material starts or stops inside the body.
 
 With open ends the alignment decides which body frames the hands take covers.  Where an
 uncovered range begins or ends inside the body, the exact frame is located only to within a

@@ -36,6 +36,7 @@ class SideResult:
     alignment: Alignment
     joints: dict = field(default_factory=dict)  # output joint -> hands joints driving it
     extra: dict = field(default_factory=dict)  # JSON-ready report keys of later stages
+    trend: object = None  # the time map's smoother (splicer.transfer.trend.TrendFit), once the trend stage ran
 
     @property
     def pass1(self):

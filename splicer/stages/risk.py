@@ -1,12 +1,14 @@
-"""Stage 6c, the error's 95th percentile: every signal of the alignment weighed together.
+"""Stage 6d, the error's 95th percentile: every signal of the alignment weighed together.
 
 After the cross-check each side's estimated error is the larger of the expected path's spread
 and the arms' disagreement.  Measured on the ground-truth protocol, that rule flags frames
 whose arm wanders where its motion says little (good frames) and misses stretches where
 every signal is a little raised but none is large (README *Accuracy*).  This stage replaces
 it, where both arms were aligned with one pass 1 (the default for two sides), with the 95th
-percentile of the frame's error estimated by an ordinal logistic model of those signals and
-the body's arm speeds (:mod:`splicer.align.risk`; :data:`splicer.defaults.RISK_QUANTILE`).
+percentile of the frame's error estimated by an ordinal logistic model of those signals, the
+time-map smoother's standard deviation and shift (:func:`splicer.stages.transfer.trend_time_maps`
+runs first) and the body's arm speeds (:mod:`splicer.align.risk`;
+:data:`splicer.defaults.RISK_QUANTILE`).
 The previous estimate stays in the confidence as ``evidence_error_s``.  One side, each arm
 aligned on its own, or a take whose motion does not match the hands' at all (the floor of
 :func:`splicer.stages.align.refine`) keep the previous estimate.  The output motion is not
@@ -28,10 +30,11 @@ __all__ = ["side_risk_signals", "estimate_risk"]
 def side_risk_signals(r, other) -> dict | None:
     """The risk model's signals of side result ``r`` (:func:`splicer.align.risk.risk_signals`),
     with ``other`` the other side's result; None when the alignment lacks what they need (no
-    confidence, no expected path, no own path of either arm)."""
+    confidence, no expected path, no own path of either arm, no time-map smoother: the stage
+    runs after :func:`splicer.stages.transfer.trend_time_maps`)."""
     a, b = r.alignment, other.alignment
     conf = a.confidence
-    if conf is None or a.posterior is None or a.own is None or b.own is None:
+    if conf is None or a.posterior is None or a.own is None or b.own is None or r.trend is None:
         return None
     fps = float(r.markers.spaces.body_fps)
     mean = np.asarray(a.posterior.mean, dtype=np.float64)
@@ -42,6 +45,7 @@ def side_risk_signals(r, other) -> dict | None:
     dis = conf.disagreement_s if conf.disagreement_s is not None else np.zeros(n)
     return risk_signals(spread_s=np.asarray(conf.spread_frames, dtype=np.float64) / fps, disagreement_s=dis,
                         evidence_s=conf.est_error_s if conf.evidence_error_s is None else conf.evidence_error_s, own_s=own, other_own_s=other_own,
+                        trend_sd_s=r.trend.sd_s, trend_shift_s=r.trend.shift_s,
                         body_relative=r.markers.body.relative(), other_body_relative=other.markers.body.relative())
 
 

@@ -58,7 +58,7 @@ def time_map(alignment: Alignment, markers: SideMarkers, opts: SpliceOptions) ->
 
 
 def trend_time_maps(sides: dict, opts: SpliceOptions) -> dict:
-    """Stage 6d, the time maps weighed by the alignment's uncertainty (:mod:`splicer.transfer.trend`).
+    """Stage 6c, the time maps weighed by the alignment's uncertainty (:mod:`splicer.transfer.trend`).
 
     Each side's smooth time map is replaced by the most likely course of the hands time given
     how widely the near-best paths spread at each frame (the confidence's ``spread_frames``, the
@@ -66,28 +66,32 @@ def trend_time_maps(sides: dict, opts: SpliceOptions) -> dict:
     it keeps the map where the spread is small and bridges the uncertain stretches with the
     tempo of the sure frames around them; then it is made monotone again and every pin held
     (:func:`splicer.transfer.timemap.monotone_pinned`).  Measured on the ground-truth protocol
-    (README *Accuracy*).  It runs after the confidence stages, whose estimates the report keeps.
+    (README *Accuracy*).  The smoother's standard deviation and how far it moved the map are
+    kept for the risk stage (:func:`splicer.stages.risk.estimate_risk`), which runs next.
 
     Parameters
     ----------
     sides : dict of str -> SideResult
-        After :func:`splicer.stages.coverage.mark_coverage_edges`.
+        After :func:`splicer.stages.crosscheck.cross_check`.
     opts : SpliceOptions
         ``merge="median"`` (its rotations come from the path, not the map), or
-        ``tempo_var_per_s=0``: the sides unchanged.
+        ``tempo_var_per_s=0``: the maps unchanged (the smoother still runs, with
+        :data:`splicer.defaults.TEMPO_VAR_PER_S`, for the risk stage's signals).
 
     Returns
     -------
     dict of str -> SideResult
-        ``hands_frame`` replaced where the side has a confidence; the confidence is kept.
+        Where the side has a confidence: ``trend`` set (a
+        :class:`~splicer.transfer.trend.TrendFit`) and, unless switched off, ``hands_frame``
+        replaced; the confidence is kept.
     """
     from dataclasses import replace
 
+    from ..defaults import TEMPO_VAR_PER_S
     from ..transfer.timemap import monotone_pinned
-    from ..transfer.trend import trend_time_map
+    from ..transfer.trend import trend_fit
 
-    if opts.merge != "timemap" or not opts.tempo_var_per_s:
-        return dict(sides)
+    apply = opts.merge == "timemap" and bool(opts.tempo_var_per_s)
     out = {}
     for s, r in sides.items():
         conf = r.alignment.confidence
@@ -98,11 +102,15 @@ def trend_time_maps(sides: dict, opts: SpliceOptions) -> dict:
         # the spread, not the estimated error: it is a smooth function of the input (the risk
         # model's signals include each arm's best path, which a float32 round trip can flip)
         sd_s = np.asarray(conf.spread_frames, dtype=np.float64) / sp.body_fps  # common frames: the body rate
-        tm = trend_time_map(r.hands_frame, sd_s, body_fps=sp.body_fps, hands_fps=sp.hands_fps,
-                            tempo_var_per_s=opts.tempo_var_per_s)
+        fit = trend_fit(r.hands_frame, sd_s, body_fps=sp.body_fps, hands_fps=sp.hands_fps,
+                        tempo_var_per_s=opts.tempo_var_per_s if apply else TEMPO_VAR_PER_S)
+        if not apply:
+            out[s] = replace(r, trend=fit)
+            continue
+        tm = fit.hands_frame.copy()
         a, b = _covered_span(r.alignment)
         tm[a:b + 1] = monotone_pinned(tm[a:b + 1], last=sp.n_hands - 1, pins=_span_pins(r.markers.pins, a, b))
-        out[s] = replace(r, hands_frame=tm)
+        out[s] = replace(r, hands_frame=tm, trend=fit)
     return out
 
 

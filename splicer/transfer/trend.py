@@ -11,7 +11,9 @@ a random walk whose variance grows by ``tempo_var_per_s`` per second of body tim
 body frame observes ``x`` with the standard deviation the spread says.
 The Rauch-Tung-Striebel smoother gives the mean of ``x`` given every observation: it follows
 the time map where the estimate is small and bridges the uncertain stretches with the tempo
-the confident frames around them imply.
+the confident frames around them imply.  It also gives the standard deviation of ``x`` given
+every observation, and how far the mean moved from the map: both are signals of the risk
+model (:mod:`splicer.align.risk`).
 
 Units are in the names: ``_s`` seconds, ``_per_s`` per second of body time; ``hands`` /
 ``body`` frames are 0-based, fractional where the map is.
@@ -19,10 +21,12 @@ Units are in the names: ``_s`` seconds, ``_per_s`` per second of body time; ``ha
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
 
-__all__ = ["trend_time_map", "ERROR_FLOOR_S"]
+__all__ = ["TrendFit", "trend_fit", "trend_time_map", "ERROR_FLOOR_S"]
 
 #: No frame is trusted to better than this (seconds of hands time): the expected path's own
 #: resolution, a fraction of a frame.
@@ -40,7 +44,8 @@ def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against 
 
     ``y[i]`` observed with variance ``r[i]`` (``r[i] < 0``: not observed); state (x, v),
     ``x[i+1] = x[i] + dt v[i]``, ``v`` a random walk of variance density ``q``.  Returns the
-    smoothed ``x``.  The prior at index 0 is ``x = y[0]`` (loosely: ``_X_PRIOR``), ``v = v0``."""
+    smoothed ``x`` and its variance.  The prior at index 0 is ``x = y[0]`` (loosely:
+    ``_X_PRIOR``), ``v = v0``."""
     n = y.shape[0]
     xf = np.empty(n)
     vf = np.empty(n)
@@ -67,6 +72,7 @@ def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against 
         pf[i, 0], pf[i, 1], pf[i, 2] = a, b, c
     xs = xf.copy()
     vs = vf.copy()
+    ps = pf.copy()  # smoothed covariance
     for i in range(n - 2, -1, -1):
         # C = Pf[i] F^T inv(Pp[i+1]), F = [[1, dt], [0, 1]]
         f00 = pf[i, 0] + dt * pf[i, 1]
@@ -83,7 +89,82 @@ def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against 
         dx, dv = xs[i + 1] - xp[i + 1], vs[i + 1] - vp[i + 1]
         xs[i] = xf[i] + c00 * dx + c01 * dv
         vs[i] = vf[i] + c10 * dx + c11 * dv
-    return xs
+        # Ps[i] = Pf[i] + C (Ps[i+1] - Pp[i+1]) C^T
+        d00, d01, d11 = ps[i + 1, 0] - a1, ps[i + 1, 1] - b1, ps[i + 1, 2] - c1
+        e00, e01 = c00 * d00 + c01 * d01, c00 * d01 + c01 * d11
+        e10, e11 = c10 * d00 + c11 * d01, c10 * d01 + c11 * d11
+        ps[i, 0] = pf[i, 0] + e00 * c00 + e01 * c01
+        ps[i, 1] = pf[i, 1] + e00 * c10 + e01 * c11
+        ps[i, 2] = pf[i, 2] + e10 * c10 + e11 * c11
+    return xs, ps[:, 0].copy()
+
+
+@dataclass(frozen=True, eq=False)
+class TrendFit:
+    """The smoother's answer for one side (:func:`trend_fit`).
+
+    Attributes
+    ----------
+    hands_frame : np.ndarray [shape=(n,)]
+        The smoothed hands frame of each body frame (fractional), NaN where uncovered; not yet
+        monotone or pinned.
+    sd_s : np.ndarray [shape=(n,)]
+        Standard deviation of each body frame's hands time given every frame's observation,
+        seconds; NaN where uncovered.
+    shift_s : np.ndarray [shape=(n,)]
+        How far the smoothed hands time lies from the map it smoothed, seconds; NaN where uncovered.
+    """
+
+    hands_frame: np.ndarray
+    sd_s: np.ndarray
+    shift_s: np.ndarray
+
+
+def trend_fit(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var_per_s: float,
+              floor_s: float = ERROR_FLOOR_S) -> TrendFit:
+    """The time map's most likely course given each frame's spread and a smooth tempo, with its
+    standard deviation (arguments as :func:`trend_time_map`).
+
+    Examples
+    --------
+    The wild frame of :func:`trend_time_map`'s example moves by 20 hands frames (a third of a
+    second at 60 fps); the sure frames around it stay known to about their own 10 ms:
+
+    >>> hf = np.arange(10.0) * 2
+    >>> hf[5] = 30.0
+    >>> sd = np.full(10, 0.01); sd[5] = 1.0
+    >>> fit = trend_fit(hf, sd, body_fps=30, hands_fps=60, tempo_var_per_s=0.01)
+    >>> round(float(fit.shift_s[5]), 2), bool(np.all(fit.sd_s <= 0.01))
+    (0.33, True)
+    """
+    hf = np.asarray(hands_frame, dtype=np.float64)
+    sd_all = np.asarray(sd_s, dtype=np.float64)
+    if hf.ndim != 1 or sd_all.shape != hf.shape:
+        raise ValueError(f"hands_frame and sd_s need one shape (n,), got {hf.shape} and {sd_all.shape}")
+    for name, v in (("body_fps", body_fps), ("hands_fps", hands_fps), ("tempo_var_per_s", tempo_var_per_s),
+                    ("floor_s", floor_s)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be positive and finite, got {v!r}")
+    out = np.full(hf.shape, np.nan)
+    sd_out = np.full(hf.shape, np.nan)
+    ok = np.isfinite(hf)
+    dt = 1.0 / float(body_fps)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):  # runs [a, b) of covered frames
+        y = hf[a:b] / float(hands_fps)
+        e = sd_all[a:b]
+        seen = np.isfinite(e)
+        if b - a < 3 or not seen.any():
+            out[a:b] = hf[a:b]
+            sd_out[a:b] = np.where(seen, np.maximum(e, floor_s), np.nan)  # nothing to smooth: the spread itself
+            continue
+        sd = np.maximum(np.where(seen, e, 1.0), floor_s)
+        r = np.where(seen, sd * sd, -1.0)
+        v0 = (y[-1] - y[0]) / ((b - a - 1) * dt)
+        xs, var = _rts(y, r, dt, float(tempo_var_per_s), v0, _TEMPO_PRIOR ** 2)
+        out[a:b] = xs * float(hands_fps)
+        sd_out[a:b] = np.sqrt(np.maximum(var, 0.0))
+    return TrendFit(hands_frame=out, sd_s=sd_out, shift_s=np.abs(out - hf) / float(hands_fps))
 
 
 def trend_time_map(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var_per_s: float,
@@ -123,27 +204,5 @@ def trend_time_map(hands_frame, sd_s, *, body_fps: float, hands_fps: float, temp
     >>> bool(abs(out[5] - 10.0) < 0.05)
     True
     """
-    hf = np.asarray(hands_frame, dtype=np.float64)
-    sd_all = np.asarray(sd_s, dtype=np.float64)
-    if hf.ndim != 1 or sd_all.shape != hf.shape:
-        raise ValueError(f"hands_frame and sd_s need one shape (n,), got {hf.shape} and {sd_all.shape}")
-    for name, v in (("body_fps", body_fps), ("hands_fps", hands_fps), ("tempo_var_per_s", tempo_var_per_s),
-                    ("floor_s", floor_s)):
-        if not (np.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be positive and finite, got {v!r}")
-    out = np.full(hf.shape, np.nan)
-    ok = np.isfinite(hf)
-    dt = 1.0 / float(body_fps)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
-    for a, b in zip(edges[::2], edges[1::2]):  # runs [a, b) of covered frames
-        y = hf[a:b] / float(hands_fps)
-        e = sd_all[a:b]
-        seen = np.isfinite(e)
-        if b - a < 3 or not seen.any():
-            out[a:b] = hf[a:b]
-            continue
-        sd = np.maximum(np.where(seen, e, 1.0), floor_s)
-        r = np.where(seen, sd * sd, -1.0)
-        v0 = (y[-1] - y[0]) / ((b - a - 1) * dt)
-        out[a:b] = _rts(y, r, dt, float(tempo_var_per_s), v0, _TEMPO_PRIOR ** 2) * float(hands_fps)
-    return out
+    return trend_fit(hands_frame, sd_s, body_fps=body_fps, hands_fps=hands_fps, tempo_var_per_s=tempo_var_per_s,
+                     floor_s=floor_s).hands_frame

@@ -74,9 +74,12 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     aligned = align_pair(marks, opts, log, ends=ends, offset_s=offset_s)  # both arms; one noise decision
     sides = {s: SideResult(s, time_map(aligned[s], marks[s], opts), marks[s], aligned[s]) for s in rig.sides}
     sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
+    log.tick("time map")
     sides = trend_time_maps(sides, opts)  # each map weighed by the expected path's spread, the tempo drifting smoothly
+    log.tick("trend")
     sides = estimate_risk(sides)  # every signal weighed together: the error's 95th percentile per frame
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames
+    log.tick("risk")
     for s, r in sides.items():
         transfer = transfer_side(out, inputs, rig, s, r.alignment, r.hands_frame, opts, log, pins=r.pins)
         sanity = check_fingers(transfer, s, inputs, rig, r.hands_frame, checked.report["handedness"], log)

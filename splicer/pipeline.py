@@ -73,8 +73,9 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     marks = {s: side_markers(inputs, rig, s, log) for s in rig.sides}
     aligned = align_pair(marks, opts, log, ends=ends, offset_s=offset_s)  # both arms; one noise decision
     sides = {s: SideResult(s, time_map(aligned[s], marks[s], opts), marks[s], aligned[s]) for s in rig.sides}
-    sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
     log.tick("time map")
+    sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
+    log.tick("cross-check")
     sides = trend_time_maps(sides, opts)  # each map weighed by the expected path's spread, the tempo drifting smoothly
     log.tick("trend")
     sides = estimate_risk(sides)  # every signal weighed together: the error's 95th percentile per frame

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .timemap import frame_ranges
+
 __all__ = ["TrendFit", "trend_fit", "trend_time_map", "ERROR_FLOOR_S"]
 
 #: No frame is trusted to better than this (seconds of hands time): the expected path's own
@@ -39,7 +41,7 @@ _X_PRIOR = 1e4
 
 
 @njit(cache=True)
-def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against tests/references.py
+def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against a dense Gaussian solution (tests/test_trend.py)
     """Rauch-Tung-Striebel smoother of a local-linear-trend model (plain loops).
 
     ``y[i]`` observed with variance ``r[i]`` (``r[i] < 0``: not observed); state (x, v),
@@ -147,10 +149,9 @@ def trend_fit(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var
             raise ValueError(f"{name} must be positive and finite, got {v!r}")
     out = np.full(hf.shape, np.nan)
     sd_out = np.full(hf.shape, np.nan)
-    ok = np.isfinite(hf)
     dt = 1.0 / float(body_fps)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
-    for a, b in zip(edges[::2], edges[1::2]):  # runs [a, b) of covered frames
+    for a, last in frame_ranges(np.isfinite(hf)):  # each run of covered frames on its own
+        b = last + 1
         y = hf[a:b] / float(hands_fps)
         e = sd_all[a:b]
         seen = np.isfinite(e)

@@ -1,6 +1,10 @@
 """Fit the risk model of splicer.align.risk on the ground-truth protocol's tuning seeds.
 
-    python benchmarks/fit_risk.py [--seeds 4] [--seed0 0] [--jobs 2] [--out splicer/align/risk_model.py]
+    python benchmarks/fit_risk.py [--seeds 4] [--seed0 0] [--jobs 2] [--out splicer/align/risk_model.py] [--data X.npz]
+
+``--data``: the recorded frames are saved there (with each frame's take, scenario and seed, for
+cross-validation by seed) or, when the file exists, read from it instead of splicing; a file
+recorded over more seeds is cut to the ones asked for.
 
 For each take (the shared zeggs take when ../shared/motions is present, and the synthetic
 60-s speaker), every scenario of ``splicer-evaluate --scenarios`` and seeds ``seed0 ..
@@ -164,6 +168,9 @@ def main(argv=None) -> int:
     if a.data is not None and a.data.exists():
         z = np.load(a.data)
         X, E, takes = z["X"], z["E"], [str(x) for x in z["takes"]]
+        if "seed" in z.files:  # recorded over more seeds than asked for: keep the asked ones
+            keep = (z["seed"] >= a.seed0) & (z["seed"] < a.seed0 + a.seeds)
+            X, E = X[keep], E[keep]
     else:
         jobs = [(t, sc, s) for t, _ in _takes() for sc in SCENARIOS for s in range(a.seed0, a.seed0 + a.seeds)]
         t0 = time.time()
@@ -178,8 +185,12 @@ def main(argv=None) -> int:
         X = np.concatenate([r[3] for r in rows])
         E = np.concatenate([r[4] for r in rows])
         takes = sorted({r[0] for r in rows})
-        if a.data is not None:
-            np.savez_compressed(a.data, X=X, E=E, takes=np.array(takes))
+        if a.data is not None:  # with each frame's take, scenario and seed, for cross-validation
+            lab = [np.full(len(r[4]), i) for i, r in enumerate(rows)]
+            lab = np.concatenate(lab)
+            np.savez_compressed(a.data, X=X, E=E, takes=np.array(takes),
+                                take=np.array([r[0] for r in rows])[lab], scenario=np.array([r[1] for r in rows])[lab],
+                                seed=np.array([r[2] for r in rows])[lab])
     # monotone in the evidence: more spread, disagreement or departure everywhere never lowers the estimate
     fams = [[j for j, n in enumerate(names) if n == base or n.startswith(base + "_")]
             for base in names if base.startswith("log_") and "_m" not in base.removeprefix("log_")]

@@ -12,6 +12,7 @@ import os
 import numpy as np
 
 from ._chart import Axes, Image, Line, tick_labels, viridis, widened
+from .runs import true_runs
 
 __all__ = ["Painter"]
 
@@ -138,8 +139,7 @@ class Painter:
     def _line(self, draw, px, py, ln: Line, width_px: int) -> None:
         ok = np.isfinite(px) & np.isfinite(py)
         # runs of finite points; at most ~2 points per pixel column (a 72,000-frame map in a 400-pixel axes)
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
-        for a, b in zip(edges[::2], edges[1::2]):
+        for a, b in zip(*true_runs(ok)):
             step = max(1, (b - a) // max(2 * width_px, 1))
             idx = np.r_[np.arange(a, b, step), b - 1] if step > 1 else np.arange(a, b)
             self._stroke(draw, list(zip(px[idx].tolist(), py[idx].tolist())), ln)

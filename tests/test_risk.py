@@ -215,3 +215,28 @@ def test_fit_recovers_a_known_ordinal_model():
     mu, sd, w, th = fit(X, err, ladder=ladder, l2=0.0)
     np.testing.assert_allclose(w, w_true, atol=0.05)
     np.testing.assert_allclose(th, th_true, atol=0.06)
+
+
+def test_fit_script_keeps_the_seeds_asked_for(tmp_path):
+    """``fit_risk.py --data`` on frames recorded over more seeds fits on the asked seeds only
+    (their frame count is in the written model's ``fitted_on``), and the model it writes loads."""
+    pytest.importorskip("scipy")
+    mod = _load_fit()
+    from splicer.align.risk import feature_names
+
+    d = len(feature_names())
+    rng = np.random.default_rng(1)
+    seeds = np.repeat([0, 1, 2], [300, 500, 700])
+    X = rng.normal(size=(len(seeds), d))
+    E = np.exp(rng.normal(-3.0, 1.0, size=len(seeds)) + 0.5 * X[:, 0])  # errors of every rung
+    data = tmp_path / "frames.npz"
+    np.savez_compressed(data, X=X, E=E, takes=np.array(["synthetic"]), take=np.full(len(seeds), "synthetic"),
+                        scenario=np.full(len(seeds), "base"), seed=seeds)
+    out = tmp_path / "model.py"
+    assert mod.main(["--seeds", "1", "--seed0", "1", "--data", str(data), "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "Fitted on 500 covered body frames" in text and "seeds 1-1" in text
+    spec = importlib.util.spec_from_file_location("splicer.align.fitted_model", out)  # its import is relative
+    m = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(m)
+    assert m.MODEL.features == feature_names()

@@ -161,7 +161,7 @@ def _speed(relative: np.ndarray) -> np.ndarray:
 
 
 def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, trend_sd_s, trend_shift_s,
-                 body_relative, other_body_relative) -> dict:
+                 body_relative, other_body_relative, speeds=None) -> dict:
     """The model's per-frame signals (:data:`SIGNALS`) of one side.
 
     Parameters
@@ -179,6 +179,9 @@ def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, tr
         deviation of the hands time it gives, and how far it moved the map, seconds.
     body_relative, other_body_relative : np.ndarray [shape=(n, M, 3)]
         The body's markers of this arm and of the other, relative to their shoulder.
+    speeds : tuple of np.ndarray, optional
+        ``(speed, other_speed)`` already computed from those markers (the other side's signals,
+        swapped): then the markers are not read again.
 
     Returns
     -------
@@ -192,8 +195,9 @@ def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, tr
     for k, v in out.items():
         if v.shape != (n,):
             raise ValueError(f"{k} must have shape ({n},), got {v.shape}")
-    out["speed"] = _speed(body_relative)
-    out["other_speed"] = _speed(other_body_relative)
+    if speeds is None:
+        speeds = (_speed(body_relative), _speed(other_body_relative))
+    out["speed"], out["other_speed"] = (np.asarray(v, dtype=np.float64) for v in speeds)
     if out["speed"].shape != (n,) or out["other_speed"].shape != (n,):
         raise ValueError(f"the body markers must have {n} frames")
     out["min_speed"] = np.minimum(out["speed"], out["other_speed"])

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..model.motion import Motion
 from ..model.rotations import quat_angle, quat_from_euler, quat_hemisphere
+from ..runs import true_runs
 
 __all__ = ["detect_problems", "hand_joints", "MAX_FINGER_SPEED_DEG_S", "FROZEN_MIN_S", "FROZEN_MIN_FRAMES",
            "FROZEN_EXIT_RATIO", "FROZEN_MIN_MOVING", "SPIKE_MAX_FRAMES", "KINDS", "ZERO_ROW_ATOL"]
@@ -54,8 +55,8 @@ _ROWS = 65536  # frames per block of the zero-row test
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """Inclusive ``(first, last)`` of each run of True in a 1-D boolean array."""
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1).tolist(), (np.flatnonzero(d == -1) - 1).tolist()))
+    starts, stops = true_runs(mask)
+    return list(zip(starts.tolist(), (stops - 1).tolist()))
 
 
 def _joint_columns(motion: Motion, j: int) -> list[int]:

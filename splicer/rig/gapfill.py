@@ -32,6 +32,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ..io.trajectories import Trajectories
+from ..runs import true_runs
 
 __all__ = ["Fill", "GapFill", "fill_gaps", "missing_runs", "rigid_transform"]
 
@@ -99,9 +100,8 @@ class GapFill:
 
 def missing_runs(miss: np.ndarray) -> list[tuple[int, int]]:
     """Runs of True in a 1-D bool array as ``(start, stop)`` pairs (stop exclusive)."""
-    m = np.concatenate([[False], np.asarray(miss, dtype=bool), [False]])
-    d = np.diff(m.astype(np.int8))
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+    starts, stops = true_runs(miss)
+    return list(zip(starts.tolist(), stops.tolist()))
 
 
 def rigid_transform(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -27,11 +27,12 @@ from ..defaults import RISK_QUANTILE
 __all__ = ["side_risk_signals", "estimate_risk"]
 
 
-def side_risk_signals(r, other) -> dict | None:
+def side_risk_signals(r, other, speeds=None) -> dict | None:
     """The risk model's signals of side result ``r`` (:func:`splicer.align.risk.risk_signals`),
     with ``other`` the other side's result; None when the alignment lacks what they need (no
     confidence, no expected path, no own path of either arm, no time-map smoother: the stage
-    runs after :func:`splicer.stages.transfer.trend_time_maps`)."""
+    runs after :func:`splicer.stages.transfer.trend_time_maps`).  ``speeds``: ``(this arm's,
+    the other's)`` body speeds when already computed (the other side's signals, swapped)."""
     a, b = r.alignment, other.alignment
     conf = a.confidence
     if conf is None or a.posterior is None or a.own is None or b.own is None or r.trend is None:
@@ -46,7 +47,8 @@ def side_risk_signals(r, other) -> dict | None:
     return risk_signals(spread_s=np.asarray(conf.spread_frames, dtype=np.float64) / fps, disagreement_s=dis,
                         evidence_s=conf.est_error_s if conf.evidence_error_s is None else conf.evidence_error_s, own_s=own, other_own_s=other_own,
                         trend_sd_s=r.trend.sd_s, trend_shift_s=r.trend.shift_s,
-                        body_relative=r.markers.body.relative(), other_body_relative=other.markers.body.relative())
+                        body_relative=None if speeds is not None else r.markers.body.relative(),
+                        other_body_relative=None if speeds is not None else other.markers.body.relative(), speeds=speeds)
 
 
 def estimate_risk(sides: dict, model=None, q: float = RISK_QUANTILE) -> dict:
@@ -76,12 +78,14 @@ def estimate_risk(sides: dict, model=None, q: float = RISK_QUANTILE) -> dict:
         return dict(sides)
     (sa, ra), (sb, rb) = sides.items()
     out = dict(sides)
+    speeds = None  # the two arms' body speeds, computed once for both sides
     for s, r, other in ((sa, ra, rb), (sb, rb, ra)):
         if _unmatched(r.alignment.evidence):
             continue  # nothing in the motion matches: the floor of refine() stands
-        sig = side_risk_signals(r, other)
+        sig = side_risk_signals(r, other, speeds)
         if sig is None:
             continue
+        speeds = (sig["other_speed"], sig["speed"])
         fps = float(r.markers.spaces.body_fps)
         score = risk_score(model, sig, ~np.isfinite(np.asarray(r.hands_frame, dtype=np.float64)), fps)
         conf = r.alignment.confidence.with_estimate(error_quantile(model, score, q))

@@ -16,6 +16,7 @@ import numpy as np
 from ..filters import gaussian_filter1d
 
 from ..model.rotations import quat_hemisphere, quat_median, quat_slerp
+from ..runs import true_runs
 from .sampling import sample_rotations
 
 __all__ = ["smooth_time_map", "monotone_pinned", "median_rotations", "blend_jumps", "pin_constraints"]
@@ -249,12 +250,8 @@ def frame_ranges(mask: np.ndarray, *, min_gap: int = 0) -> list[list[int]]:
     >>> frame_ranges(np.array([0, 1, 1, 0, 0, 1, 0, 1], bool), min_gap=1)
     [[1, 2], [5, 7]]
     """
-    m = np.asarray(mask, dtype=bool)
-    if not m.any():
-        return []
-    d = np.diff(np.concatenate([[0], m.astype(np.int8), [0]]))
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1) - 1
+    starts, stops = true_runs(mask)
+    ends = stops - 1
     out: list[list[int]] = []
     for s, e in zip(starts, ends):
         if out and s - out[-1][1] - 1 <= min_gap:

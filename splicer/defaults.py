@@ -121,6 +121,17 @@ UNCOVERED_QUANTILE = 0.1
 #: (86 %), for +0 / +0 / +0 / +0.1 points of good frames on zeggs and +0.4 / +0.6 / +0.7 / +1.2
 #: on the synthetic take; held out (seeds 100-104): 58 -> 74 % and 63 -> 76 % (README *Accuracy*).
 COVERAGE_EDGE_S = 1.0 / 3.0
+#: Open ends: where the hands' material starts (stops) inside the body, a stretch of at least
+#: UNSURE_EDGE_S seconds right after (before) it whose every frame's estimated error exceeds
+#: UNSURE_EDGE_ERROR_S seconds, and that stops at a sure frame, is taken as uncovered too (:func:`splicer.stages.coverage.unsure_edges`):
+#: a hands take that holds material from outside the body's performance (a calibration pose,
+#: other gestures) gets matched there, and the alignment knows it is unsure.  Chosen on the
+#: tuning seeds 0-3 of the protocol's scenarios (0.5-3 s, 0.1-0.5 s; README *Real sessions*):
+#: at 1 s and 0.2 s no frame of the clean scenarios or the imitation changes, and of the body
+#: frames of *all* and *short* it takes as uncovered, 1,355 were truly uncovered and 163 covered
+#: (137 of those more than 0.1 s off; seeds 4-7: 711 and 182, 26).
+UNSURE_EDGE_S = 1.0
+UNSURE_EDGE_ERROR_S = 0.2
 #: The estimated error of a frame (:mod:`splicer.stages.risk`) is this quantile of its error
 #: under the risk model: the error it exceeds with probability 1 - RISK_QUANTILE.  0.95, the
 #: percentile of the scenario targets (README *Accuracy*); chosen before measuring, not tuned.

@@ -14,7 +14,7 @@ from dataclasses import replace
 from .options import SpliceOptions, resolve_options
 # the private names are used by splice-markers, pairing, the plot and the tests
 from .stages.align import Alignment, _choose_ends, _cover_pins, _pin_error, agree_ends, align_pair, align_side, phase_smoothing  # noqa: F401
-from .stages.coverage import coverage_edges, mark_coverage_edges
+from .stages.coverage import coverage_edges, mark_coverage_edges, uncover_unsure_edges, unsure_edges
 from .stages.crosscheck import cross_check, hands_disagreement
 from .stages.risk import estimate_risk
 from .stages.load import Inputs, load_inputs
@@ -26,7 +26,7 @@ from .stages.transfer import Transfer, check_fingers, time_map, transfer_side, t
 
 __all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
            "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "trend_time_maps", "transfer_side",
-           "check_fingers", "cross_check", "hands_disagreement", "estimate_risk", "coverage_edges", "mark_coverage_edges", "build_report",
+           "check_fingers", "cross_check", "hands_disagreement", "estimate_risk", "unsure_edges", "uncover_unsure_edges", "coverage_edges", "mark_coverage_edges", "build_report",
            "splice"]
 
 
@@ -79,6 +79,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     sides = trend_time_maps(sides, opts)  # each map weighed by the expected path's spread, the tempo drifting smoothly
     log.tick("trend")
     sides = estimate_risk(sides)  # every signal weighed together: the error's 95th percentile per frame
+    sides = uncover_unsure_edges(sides, opts, log)  # unsure stretches next to uncovered frames: other material
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames
     log.tick("risk")
     for s, r in sides.items():

@@ -84,7 +84,7 @@ def test_stages_compose_like_splice(sample):
     sides = {"right": splicer.SideResult("right", tm, markers, aln)}
     sides = splicer.trend_time_maps(splicer.cross_check(sides), opts)
     weighed = sides["right"].hands_frame
-    sides = splicer.mark_coverage_edges(splicer.estimate_risk(sides))
+    sides = splicer.mark_coverage_edges(splicer.uncover_unsure_edges(splicer.estimate_risk(sides), opts))
     whole = splicer.splice(body, hands, options=opts)
     np.testing.assert_allclose(weighed, whole.sides["right"].hands_frame)
     for k in ("est_error_s", "confidence"):

@@ -75,3 +75,95 @@ def test_hands_covering_the_middle_half_flag_the_edges_of_their_coverage():
     hf = np.asarray(r.sides["left"].hands_frame, dtype=np.float64)
     e = coverage_edges(hf, body.fps)
     assert e.sum() == 2 * w and e[a:a + w].all() and e[b - w + 1:b + 1].all()
+
+
+# ---------------------------------------------------------------- unsure stretches next to uncovered frames
+
+def test_unsure_edges_both_ends_and_the_body_ends():
+    from splicer.stages.coverage import unsure_edges
+
+    nan = np.nan
+    hf = np.array([nan, nan, 0, 1, 2, 3, 4, 5, 6, 7, nan])
+    est = np.array([nan, nan, 0.3, 0.3, 0.1, 0.1, 0.1, 0.1, 0.25, 0.21, nan])
+    # start: frames 2-3 (2 frames); end: frames 8-9 (2 frames), both next to uncovered frames
+    assert unsure_edges(hf, est, 10.0, min_s=0.2).astype(int).tolist() == [0, 0, 1, 1, 0, 0, 0, 0, 1, 1, 0]
+    # a higher error bar leaves the end's 0.21-0.25 s frames alone
+    assert unsure_edges(hf, est, 10.0, min_s=0.2, error_s=0.26).astype(int).tolist() == [0, 0, 1, 1] + [0] * 7
+    assert not unsure_edges(hf, est, 10.0, min_s=0.0).any()  # switched off
+    # the covered span reaching the body's first and last frames: nothing is taken
+    full = np.arange(11.0)
+    assert not unsure_edges(full, np.full(11, 0.5), 10.0, min_s=0.2).any()
+    # unsure from end to end (the synthetic *all* scenario's held-out seed 103 had such a side):
+    # nothing to lead to, nothing taken
+    assert not unsure_edges(hf, np.where(np.isfinite(hf), 0.5, nan), 10.0, min_s=0.2).any()
+    # a pin says the material there is the body's: a run reaching it is left alone
+    assert not unsure_edges(hf, np.where(np.isfinite(hf), 0.5, nan), 10.0, min_s=0.2, pinned=[5]).any()
+    assert unsure_edges(hf, est, 10.0, min_s=0.2, pinned=[3]).astype(int).tolist() == [0] * 8 + [1, 1, 0]
+    with pytest.raises(ValueError):
+        unsure_edges(hf, est[:-1], 10.0)
+
+
+def test_uncover_unsure_edges_stage_on_the_sample():
+    """The stage on a real side: frames taken get NaN hands frames, the covered span narrows, the
+    confidence is uncovered there, a pin stops it, and ``unsure_edge_s=0`` switches it off."""
+    from dataclasses import replace
+
+    from splicer import splice
+    from splicer.align.frames import Pin
+    from splicer.options import SpliceOptions
+    from splicer.stages.coverage import uncover_unsure_edges
+    from splicer.stages.log import Log
+
+    r = splice(MOTIONS / "sample_body.bvh", MOTIONS / "sample_hands.bvh", side="left").sides["left"]
+    n, fps = len(r.hands_frame), r.markers.spaces.body_fps
+    hf = np.asarray(r.hands_frame, dtype=np.float64).copy()
+    hf[:40] = np.nan  # uncovered start
+    conf = r.alignment.confidence
+    est = np.where(np.arange(n) < 40, np.nan, 0.01)
+    est[40:90] = 0.5  # 50 frames (1.7 s) unsure next to it
+    conf = replace(conf, est_error_s=est, confidence=np.where(np.isfinite(est), 0.5, np.nan),
+                   spread_frames=np.where(np.isfinite(est), 1.0, np.nan))
+    side = replace(r, hands_frame=hf, alignment=replace(r.alignment, covered=(40, n - 1), confidence=conf))
+    log = Log()
+    out = uncover_unsure_edges({"left": side}, SpliceOptions(), log)["left"]
+    assert np.isnan(out.hands_frame[:90]).all() and np.isfinite(out.hands_frame[90:]).all()
+    assert out.alignment.covered == (90, n - 1)
+    c = out.alignment.confidence
+    for k in ("est_error_s", "confidence", "spread_frames"):
+        assert np.isnan(getattr(c, k)[:90]).all() and np.isfinite(getattr(c, k)[90:]).all()
+    assert any("40-89 (1.7 s)" in w and "taken as uncovered" in w for w in log.warnings)
+    # a pin at body frame 60, inside the unsure stretch: nothing taken
+    pinned = replace(side, markers=replace(side.markers, pins=(Pin(60, int(hf[100]), 2, "test"),)))
+    assert uncover_unsure_edges({"left": pinned}, SpliceOptions())["left"] is pinned
+    assert uncover_unsure_edges({"left": side}, SpliceOptions(unsure_edge_s=0.0))["left"] is side
+
+
+@pytest.mark.slow
+def test_unsure_start_of_an_all_scenario_keeps_the_body_fingers():
+    """The protocol's *all* scenario on the synthetic speaker (tuning seed 1): the hands take
+    holds other material before its genuine span and covers part of the body; the path matches
+    body frames the hands never show to that material, and is unsure there.  With the stage
+    those frames are reported uncovered (all of them truly so) and keep the body's own fingers."""
+    from splicer import splice
+    from splicer.evaluation.scenarios import make_scenario, scenario
+    from splicer.evaluation.synth import make_gesture_take
+
+    take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
+    sep = make_scenario(take, scenario("all"), rng=np.random.default_rng(1))
+    on = splice(sep.body, sep.hands)
+    off = splice(sep.body, sep.hands, unsure_edge_s=0.0)
+    for s in on.sides:
+        h_on = np.isfinite(np.asarray(on.sides[s].hands_frame, dtype=np.float64))
+        h_off = np.isfinite(np.asarray(off.sides[s].hands_frame, dtype=np.float64))
+        taken = h_off & ~h_on
+        assert not (h_on & ~h_off).any()  # only ever takes frames away
+        assert taken.sum() >= 30, taken.sum()
+        assert np.mean(~np.asarray(sep.covered)[taken]) >= 0.9  # truly uncovered
+        assert any("taken as uncovered" in w for w in on.report["warnings"])
+        # away from the blend window, the output's finger rotations there are the body's own
+        joints = [on.motion.skeleton.names.index(j) for j in on.sides[s].joints]
+        idx = np.flatnonzero(taken)
+        far = idx[(idx < on.sides[s].alignment.covered[0] - int(0.25 * 30) - 1)]
+        assert len(far) > 0
+        np.testing.assert_allclose(on.motion.joint_rotations(joints)[far], sep.body.joint_rotations(joints)[far],
+                                   atol=1e-9)

@@ -144,6 +144,21 @@ class Confidence:
         return replace(self, est_error_s=est, confidence=_confidence_of(est, self.error_scale_s),
                        evidence_error_s=self.est_error_s)
 
+    def uncovered_at(self, where: np.ndarray) -> "Confidence":
+        """This confidence with the frames of the boolean mask ``where`` uncovered: NaN in
+        ``spread_frames``, ``est_error_s``, ``confidence`` and the per-frame signals kept beside
+        them (``disagreement_s``, ``evidence_error_s``)."""
+        w = np.asarray(where)
+        if w.shape != self.est_error_s.shape or w.dtype != bool:
+            raise ValueError(f"where must be a boolean mask of shape {self.est_error_s.shape}, got {w.dtype} {w.shape}")
+
+        def nan_at(a):
+            return None if a is None else np.where(w, np.nan, np.asarray(a, dtype=np.float64))
+
+        return replace(self, spread_frames=nan_at(self.spread_frames), est_error_s=nan_at(self.est_error_s),
+                       confidence=nan_at(self.confidence), disagreement_s=nan_at(self.disagreement_s),
+                       evidence_error_s=nan_at(self.evidence_error_s))
+
     def with_floor(self, error_s: float, where: np.ndarray | None = None) -> "Confidence":
         """This confidence with every covered frame's estimated error (or only those where the
         boolean mask ``where`` is true) at least ``error_s`` seconds (uncovered frames stay NaN);

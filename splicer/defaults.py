@@ -126,7 +126,7 @@ COVERAGE_EDGE_S = 1.0 / 3.0
 #: UNSURE_EDGE_ERROR_S seconds, and that stops at a sure frame, is taken as uncovered too (:func:`splicer.stages.coverage.unsure_edges`):
 #: a hands take that holds material from outside the body's performance (a calibration pose,
 #: other gestures) gets matched there, and the alignment knows it is unsure.  Chosen on the
-#: tuning seeds 0-3 of the protocol's scenarios (0.5-3 s, 0.1-0.5 s; README *Real sessions*):
+#: tuning seeds 0-3 of the protocol's scenarios (0.5-3 s, 0.1-0.5 s; benchmarks/HISTORY.md, 0.14.0):
 #: at 1 s and 0.2 s no frame of the clean scenarios or the imitation changes, and of the body
 #: frames of *all* and *short* it takes as uncovered, 1,355 were truly uncovered and 163 covered
 #: (137 of those more than 0.1 s off; seeds 4-7: 711 and 182, 26).

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..align.risk import distance_to_uncovered
 from ..defaults import COVERAGE_EDGE_S, UNSURE_EDGE_ERROR_S, UNSURE_EDGE_S
+from ..runs import true_runs
 
 __all__ = ["coverage_edges", "mark_coverage_edges", "unsure_edges", "uncover_unsure_edges"]
 
@@ -88,15 +89,12 @@ def unsure_edges(hands_frame, est_error_s, fps: float, *, min_s: float = UNSURE_
     pins[np.asarray([p for p in pinned if 0 <= p < n], dtype=np.int64)] = True
     unsure &= ~pins
     a, b = int(cov[0]), int(cov[-1])
-    for inside, step, start in ((a > 0, 1, a), (b < n - 1, -1, b)):
-        if not inside:
-            continue
-        i = start
-        while a <= i <= b and unsure[i]:
-            i += step
-        run = abs(i - start)
-        if run >= need and a <= i <= b and not pins[i]:  # stopped at a sure, unpinned frame of the span
-            lo, hi = (start, i) if step > 0 else (i + 1, start + 1)
+    starts, stops = true_runs(unsure)  # unsure runs [lo, hi); the frame past each end stops it
+    for lo, hi in zip(starts.tolist(), stops.tolist()):
+        at_start = lo == a and a > 0 and hi <= b  # from the span's first frame, stopped inside it
+        at_end = hi == b + 1 and b < n - 1 and lo > a  # up to the span's last frame, stopped inside it
+        stop = hi if at_start else lo - 1
+        if (at_start or at_end) and hi - lo >= need and not pins[stop]:  # stopped by a sure, unpinned frame
             out[lo:hi] = True
     return out
 

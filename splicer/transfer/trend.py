@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .timemap import frame_ranges
+from ..runs import true_runs
 
 __all__ = ["TrendFit", "trend_fit", "trend_time_map", "ERROR_FLOOR_S"]
 
@@ -150,8 +150,7 @@ def trend_fit(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var
     out = np.full(hf.shape, np.nan)
     sd_out = np.full(hf.shape, np.nan)
     dt = 1.0 / float(body_fps)
-    for a, last in frame_ranges(np.isfinite(hf)):  # each run of covered frames on its own
-        b = last + 1
+    for a, b in zip(*true_runs(np.isfinite(hf))):  # each run [a, b) of covered frames on its own
         y = hf[a:b] / float(hands_fps)
         e = sd_all[a:b]
         seen = np.isfinite(e)

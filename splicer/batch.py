@@ -110,6 +110,7 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
 
     from .io.bvh import write_bvh
     from .pipeline import splice
+    from .report import json_text
 
     out = Path(out_dir)
     t0 = time.perf_counter()
@@ -143,7 +144,7 @@ def run_pair(job: PairJob, out_dir: str, plot: bool = False, digest: str | None 
                         "started_unix_s": round(started, 3), "seconds": round(seconds, 3),
                         "cpu_seconds": round(time.thread_time() - c0, 3),
                         "pid": os.getpid(), "plot": pp}
-        _write_atomic(rp, json.dumps(rep, indent=1))
+        _write_atomic(rp, json_text(rep))
         return summary_row(job, "done", rep=rep, seconds=seconds, report=str(rp), plot=pp)
     except SplicerError as e:
         return summary_row(job, "failed", seconds=time.perf_counter() - t0, error=str(e))

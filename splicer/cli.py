@@ -11,7 +11,6 @@ signal the temporaries are removed and the message says what exists.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import signal
@@ -190,7 +189,10 @@ def _check_output(path: Path, inputs) -> None:
 
 
 def _write_json(obj, path: Path) -> None:
-    write_text_atomic(path, json.dumps(obj, indent=1), what="report")
+    """A report (``splice``, ``splice-markers``) as :func:`splicer.report.json_text`, atomically."""
+    from .report import json_text
+
+    write_text_atomic(path, json_text(obj), what="report")
 
 
 def _check_distinct(outputs: list[tuple[str, str]]) -> None:

@@ -17,7 +17,6 @@ Exit status: 0 done, 1 bad input, 2 usage.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -27,9 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import _band_text, _forget_caught_interrupt, _Parser
+from .cli import _band_text, _forget_caught_interrupt, _Parser, _write_json
 from .errors import SplicerError
-from .io.atomic import write_text_atomic
 
 __all__ = ["MarkerAlignment", "align_marker_files", "retime", "main"]
 
@@ -256,10 +254,6 @@ def _check_output(path: Path, inputs) -> None:
         raise SplicerError(f"{path}: cannot write: folder {parent} does not exist")
     if path.is_dir():
         raise SplicerError(f"{path}: is a folder; give a file name")
-
-
-def _write_json(obj, path: Path) -> None:
-    write_text_atomic(path, json.dumps(obj, indent=1), what="report")
 
 
 def main(argv=None) -> int:

@@ -1,0 +1,94 @@
+"""The report's JSON text (splicer.report.json_text) and its rounded per-frame lists."""
+
+import json
+
+import numpy as np
+import pytest
+
+from splicer.report import _round_list, json_text
+
+
+def test_worked_layout():
+    doc = {"sides": {"left": {"hands_frame": [0.0, 1.5, None], "low_confidence": [[3, 7], [10, 12]],
+                              "joints": {}, "warnings": ["a", "b"]}}, "n": 3, "ok": True}
+    assert json_text(doc) == (
+        '{\n'
+        ' "sides": {\n'
+        '  "left": {\n'
+        '   "hands_frame": [0.0, 1.5, null],\n'
+        '   "low_confidence": [\n'
+        '    [3, 7],\n'
+        '    [10, 12]\n'
+        '   ],\n'
+        '   "joints": {},\n'
+        '   "warnings": [\n'
+        '    "a",\n'
+        '    "b"\n'
+        '   ]\n'
+        '  }\n'
+        ' },\n'
+        ' "n": 3,\n'
+        ' "ok": true\n'
+        '}')
+
+
+def test_empty_containers_and_scalars():
+    assert json_text([]) == "[]"
+    assert json_text({}) == "{}"
+    assert json_text("x\n\"y\"") == json.dumps("x\n\"y\"")
+    assert json_text(None) == "null"
+    assert json_text([True, False]) == "[\n true,\n false\n]"  # booleans are not numbers: one per line
+    assert json_text({1: "a", None: "b", 2.5: "c"}) == json.dumps({1: "a", None: "b", 2.5: "c"}, indent=1)
+
+
+def _random_doc(rng, depth=0):
+    kind = rng.integers(0, 7 if depth < 4 else 4)
+    if kind == 0:
+        return float(rng.normal()) if rng.random() < 0.8 else None
+    if kind == 1:
+        return int(rng.integers(-5, 5))
+    if kind == 2:
+        return "".join(rng.choice(list("ab\"\\\n é{}[],:"), size=int(rng.integers(0, 6))))
+    if kind == 3:
+        return [float(v) for v in rng.normal(size=int(rng.integers(0, 5)))]
+    if kind == 4:
+        return [_random_doc(rng, depth + 1) for _ in range(int(rng.integers(0, 4)))]
+    if kind == 5:
+        return {f"k{k}": _random_doc(rng, depth + 1) for k in range(int(rng.integers(0, 4)))}
+    return bool(rng.integers(0, 2))
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_reads_back_as_json_dumps(seed):
+    rng = np.random.default_rng(seed)
+    doc = {f"k{k}": _random_doc(rng) for k in range(6)}
+    text = json_text(doc)
+    assert json.loads(text) == json.loads(json.dumps(doc))
+    # a list of numbers is one line; every other container spans lines, as json.dumps(indent=1)
+    assert text.count("\n") <= json.dumps(doc, indent=1).count("\n")
+
+
+def test_per_frame_lists_stay_on_one_line():
+    doc = {"sides": {"left": {"confidence": _round_list(np.linspace(0, 1, 10_000), 3)}}}
+    assert json_text(doc).count("\n") == 6
+
+
+def test_round_list_worked():
+    assert _round_list([1.23456, np.nan, -np.inf, 2.0, -0.00004], 4) == [1.2346, None, None, 2.0, -0.0]
+    assert _round_list(np.array([[0.5]]).ravel(), 0) == [0.0]  # half to even, as numpy and Python round
+    assert _round_list([], 3) == []
+    out = _round_list(np.array([1.5, 2.5]), 0)
+    assert out == [2.0, 2.0] and all(type(v) is float for v in out)
+
+
+def test_round_list_matches_python_round():
+    """numpy's rounding (scale, round half to even, unscale) against Python's exact decimal rounding:
+    the same on per-frame values but at exact-decimal near-ties, where they differ by one unit
+    of the last digit."""
+    rng = np.random.default_rng(0)
+    a = np.concatenate([rng.uniform(0, 5000, 20_000), rng.uniform(0, 1, 20_000)])
+    got = _round_list(a, 4)
+    want = [round(float(v), 4) for v in a]
+    diff = np.abs(np.array(got) - np.array(want))
+    assert (diff == 0).mean() > 0.999
+    assert diff.max() <= 1e-4 * (1 + 1e-9)

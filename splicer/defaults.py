@@ -132,6 +132,19 @@ COVERAGE_EDGE_S = 1.0 / 3.0
 #: (137 of those more than 0.1 s off; seeds 4-7: 711 and 182, 26).
 UNSURE_EDGE_S = 1.0
 UNSURE_EDGE_ERROR_S = 0.2
+#: Open ends, then: a stretch of at least UNMATCHED_EDGE_S seconds next to the uncovered frames
+#: (the same stretches as above) where the alignment's cost, averaged over UNMATCHED_WINDOW_S
+#: seconds, is more than UNMATCHED_RATIO of what the same pass costs against the hands take
+#: played backwards (:meth:`splicer.align.evidence.Evidence.local_ratio`) is taken as uncovered
+#: too (:func:`splicer.stages.coverage.unmatched_edges`): the hands' material matched there is
+#: no better than unrelated.  Chosen on the tuning seeds 0-3 (windows 2-4 s, ratios 0.8-0.9,
+#: 1-2 s; benchmarks/HISTORY.md, 0.15.0): of the truly uncovered body frames the earlier stages
+#: still gave hands material, it takes 929 of 4,397 and 6 covered frames (seeds 4-7: 496 of
+#: 3,999, none covered).  Only where more than COVERAGE_EDGE_S of the body lies uncovered past
+#: the stretch (nearer the body's own end the takes start or stop together).
+UNMATCHED_EDGE_S = 2.0
+UNMATCHED_RATIO = 0.85
+UNMATCHED_WINDOW_S = 2.0
 #: The estimated error of a frame (:mod:`splicer.stages.risk`) is this quantile of its error
 #: under the risk model: the error it exceeds with probability 1 - RISK_QUANTILE.  0.95, the
 #: percentile of the scenario targets (README *Accuracy*); chosen before measuring, not tuned.

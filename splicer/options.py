@@ -49,6 +49,7 @@ class SpliceOptions:
     offset_s: float | None = None  # open ends: body frame 0 shows this hands time, seconds (a starting guess)
     uncovered_quantile: float = D.UNCOVERED_QUANTILE  # open ends: an uncovered body frame costs this quantile of D1
     unsure_edge_s: float = D.UNSURE_EDGE_S  # open ends: a stretch this long next to uncovered frames, estimated error over UNSURE_EDGE_ERROR_S throughout, is uncovered too (stages.coverage.unsure_edges); 0: off
+    unmatched_edge_s: float = D.UNMATCHED_EDGE_S  # open ends: a stretch this long next to uncovered frames that matches no better than the hands played backwards is uncovered too (stages.coverage.unmatched_edges); 0: off
     mirror_hands: str | None = None  # "auto", "yes", "no"; None: the config file's, else auto
     repair: str = "on"  # "on": dropouts and gaps of the hands capture repaired (and reported) first; "off"
 
@@ -64,7 +65,7 @@ _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "
             "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "auto", "open", "fixed")}
 _NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "sign_ramp", "temperature_s",
                 "posterior_radius_s", "timemap_sigma_s", "tempo_var_per_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
-                "coarse_above_s", "unsure_edge_s")
+                "coarse_above_s", "unsure_edge_s", "unmatched_edge_s")
 
 
 def resolve_options(options: SpliceOptions | None = None, overrides: dict | None = None) -> SpliceOptions:

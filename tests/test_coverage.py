@@ -103,6 +103,71 @@ def test_unsure_edges_both_ends_and_the_body_ends():
         unsure_edges(hf, est[:-1], 10.0)
 
 
+def test_unmatched_edges_worked():
+    from splicer.stages.coverage import unmatched_edges
+
+    nan = np.nan
+    hf = np.array([nan, 0, 1, 2, 3, 4, 5, 6, 7, nan, nan])
+    ratio = np.array([nan, 0.9, 0.95, 0.5, 0.2, 0.9, 0.86, 1.2, 0.9, nan, nan])
+    # start: frames 1-2; end: frames 5-8 (four frames over 0.85), both next to uncovered frames
+    assert unmatched_edges(hf, ratio, 10.0, beyond_s=0.0, min_s=0.2).astype(int).tolist() == [0, 1, 1, 0, 0, 1, 1, 1, 1, 0, 0]
+    assert unmatched_edges(hf, ratio, 10.0, beyond_s=0.0, min_s=0.3).astype(int).tolist() == [0] * 5 + [1, 1, 1, 1, 0, 0]
+    # a higher bar stops the end's run at 0.86: three frames
+    assert unmatched_edges(hf, ratio, 10.0, beyond_s=0.0, min_s=0.3, ratio_above=0.87).astype(int).tolist() == [0] * 11
+    assert unmatched_edges(hf, ratio, 10.0, beyond_s=0.0, min_s=0.2, ratio_above=0.87).astype(int).tolist() == \
+        [0, 1, 1, 0, 0, 0, 0, 1, 1, 0, 0]
+    # an unknown ratio (NaN) is never taken; a pin stops a run; 0 s switches it off
+    assert unmatched_edges(hf, np.where(np.arange(11) == 6, nan, ratio), 10.0, beyond_s=0.0, min_s=0.3).sum() == 0
+    assert unmatched_edges(hf, ratio, 10.0, beyond_s=0.0, min_s=0.2, pinned=[7]).astype(int).tolist() == [0, 1, 1] + [0] * 8
+    assert not unmatched_edges(hf, ratio, 10.0, beyond_s=0.0, min_s=0.0).any()
+    # everything unmatched: nothing kept to lead to, nothing taken; the body's own ends are left alone
+    assert not unmatched_edges(hf, np.full(11, 2.0), 10.0, beyond_s=0.0, min_s=0.1).any()
+    assert not unmatched_edges(np.arange(11.0), np.full(11, 2.0), 10.0, beyond_s=0.0, min_s=0.1).any()
+    # by default more than a third of a second must lie uncovered past an end: here the start has
+    # 0.1 s and the end 0.2 s, both within the open ends' precision (the takes start and stop together)
+    assert not unmatched_edges(hf, ratio, 10.0, min_s=0.2).any()
+    assert unmatched_edges(hf, ratio, 10.0, min_s=0.2, beyond_s=0.15).astype(int).tolist() == [0] * 5 + [1] * 4 + [0, 0]
+    with pytest.raises(ValueError):
+        unmatched_edges(hf, ratio[:-1], 10.0)
+    with pytest.raises(ValueError):
+        unmatched_edges(hf, ratio, 10.0, beyond_s=-1.0)
+
+
+def test_uncover_unmatched_edges_stage_on_the_sample():
+    """The stage with the check's rows saying the hands' material next to an uncovered start is
+    no better than the hands played backwards: taken, with its own note; off with
+    ``unmatched_edge_s=0``, and never without the check's rows."""
+    from dataclasses import replace
+
+    from splicer import splice
+    from splicer.align.evidence import Evidence
+    from splicer.options import SpliceOptions
+    from splicer.stages.coverage import uncover_unsure_edges
+    from splicer.stages.log import Log
+
+    r = splice(MOTIONS / "sample_body.bvh", MOTIONS / "sample_hands.bvh", side="left").sides["left"]
+    n, fps = len(r.hands_frame), r.markers.spaces.body_fps  # 601 frames at 30 fps
+    hf = np.asarray(r.hands_frame, dtype=np.float64).copy()
+    hf[:40] = np.nan
+    est = np.where(np.arange(n) < 40, np.nan, 0.01)
+    conf = replace(r.alignment.confidence, est_error_s=est, confidence=np.where(np.isfinite(est), 0.9, np.nan))
+    rows = np.full(201, 1.0)  # the check at 10 fps: (601 - 1) / 3 + 1 rows
+    rows[:50] = 9.0  # body frames 0-149 cost 90 % of the backwards pass (9 over 10)
+    ev = Evidence(float(rows.sum()), 2010.0, 10.0, rows=rows, backwards_rows=np.full(201, 10.0))
+    side = replace(r, hands_frame=hf, alignment=replace(r.alignment, covered=(40, n - 1), confidence=conf, evidence=ev))
+    log = Log()
+    out = uncover_unsure_edges({"left": side}, SpliceOptions(), log)["left"]
+    first = int(np.flatnonzero(np.isfinite(out.hands_frame))[0])
+    # over the 2 s window (20 rows) the ratio exceeds 0.85 while 19 rows or more cost 9: up to row ~41,
+    # body frame ~125, short of the change at body frame 150
+    assert 120 <= first <= 130 and out.alignment.covered == (first, n - 1)
+    assert np.isnan(out.alignment.confidence.est_error_s[:first]).all()
+    assert any(f"40-{first - 1}" in w and "played backwards" in w for w in log.warnings)
+    assert uncover_unsure_edges({"left": side}, SpliceOptions(unmatched_edge_s=0.0))["left"] is side
+    no_rows = replace(side, alignment=replace(side.alignment, evidence=Evidence(1.0, 2.0, 10.0)))
+    assert uncover_unsure_edges({"left": no_rows}, SpliceOptions())["left"] is no_rows
+
+
 def test_uncover_unsure_edges_stage_on_the_sample():
     """The stage on a real side: frames taken get NaN hands frames, the covered span narrows, the
     confidence is uncovered there, a pin stops it, and ``unsure_edge_s=0`` switches it off."""
@@ -150,8 +215,8 @@ def test_unsure_start_of_an_all_scenario_keeps_the_body_fingers():
 
     take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
     sep = make_scenario(take, scenario("all"), rng=np.random.default_rng(1))
-    on = splice(sep.body, sep.hands)
-    off = splice(sep.body, sep.hands, unsure_edge_s=0.0)
+    on = splice(sep.body, sep.hands, unmatched_edge_s=0.0)  # the unsure rule alone (the other: below)
+    off = splice(sep.body, sep.hands, unsure_edge_s=0.0, unmatched_edge_s=0.0)
     for s in on.sides:
         h_on = np.isfinite(np.asarray(on.sides[s].hands_frame, dtype=np.float64))
         h_off = np.isfinite(np.asarray(off.sides[s].hands_frame, dtype=np.float64))
@@ -164,6 +229,38 @@ def test_unsure_start_of_an_all_scenario_keeps_the_body_fingers():
         joints = [on.motion.skeleton.names.index(j) for j in on.sides[s].joints]
         idx = np.flatnonzero(taken)
         far = idx[(idx < on.sides[s].alignment.covered[0] - int(0.25 * 30) - 1)]
+        assert len(far) > 0
+        np.testing.assert_allclose(on.motion.joint_rotations(joints)[far], sep.body.joint_rotations(joints)[far],
+                                   atol=1e-9)
+
+
+@pytest.mark.slow
+def test_unmatched_end_of_hands_covering_part_of_the_body_keeps_the_body_fingers():
+    """*extra* + *short* on the synthetic speaker (seed 1): the hands take covers part of the body
+    and holds other material before and after; the path matches body frames past the genuine
+    span to that material.  The check against the hands played backwards finds it no better
+    than unrelated there: those frames are reported uncovered (all truly so) and keep the body's
+    fingers; with the rule off they get the other material."""
+    from splicer import splice
+    from splicer.evaluation.scenarios import make_scenario, scenario
+    from splicer.evaluation.synth import make_gesture_take
+
+    take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
+    sep = make_scenario(take, scenario("extra+short"), rng=np.random.default_rng(1))
+    on = splice(sep.body, sep.hands)
+    off = splice(sep.body, sep.hands, unmatched_edge_s=0.0)
+    truly = ~np.asarray(sep.covered)
+    for s in on.sides:
+        h_on = np.isfinite(np.asarray(on.sides[s].hands_frame, dtype=np.float64))
+        h_off = np.isfinite(np.asarray(off.sides[s].hands_frame, dtype=np.float64))
+        taken = h_off & ~h_on
+        assert not (h_on & ~h_off).any()
+        assert taken.sum() >= 300, taken.sum()  # measured 603 of the 890 truly uncovered frames off gave material
+        assert truly[taken].all()
+        assert any("played backwards" in w and "taken as uncovered" in w for w in on.report["warnings"])
+        joints = [on.motion.skeleton.names.index(j) for j in on.sides[s].joints]
+        idx = np.flatnonzero(taken)
+        far = idx[np.abs(idx[:, None] - np.flatnonzero(h_on)[None, :]).min(axis=1) > int(0.25 * 30) + 1]
         assert len(far) > 0
         np.testing.assert_allclose(on.motion.joint_rotations(joints)[far], sep.body.joint_rotations(joints)[far],
                                    atol=1e-9)

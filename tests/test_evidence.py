@@ -88,3 +88,51 @@ def test_a_check_that_cannot_run_is_said_and_never_fails_the_splice(takes, monke
     assert r.sides["right"].alignment.evidence is None
     assert "backwards_ratio" not in r.report.to_dict()["sides"]["right"]["pass1"]
     assert any("could not run (too short at 10 fps)" in w for w in r.report.warnings)
+
+
+def test_path_row_costs_are_the_mean_local_cost_on_the_path_against_a_loop():
+    """A real open-ended pass 1: each row's mean cost over its path cells, computed cell by cell;
+    rows the path leaves uncovered get the pass's penalty."""
+    from splicer.align.evidence import path_row_costs
+    from splicer.align.passes import pass1
+
+    rng = np.random.default_rng(4)
+
+    def walk(k):
+        x = np.cumsum(np.cumsum(rng.normal(size=(k, 4, 3)), axis=0), axis=0)
+        return x / np.abs(x).max()
+
+    body = walk(200)
+    hands = np.concatenate([body[40:], walk(60)])  # the hands start at body frame 40
+    mk = lambda x: Markers(x, np.zeros((len(x), 3)), np.zeros(len(x)), 1, 30.0, "right")  # noqa: E731
+    p = pass1(mk(body), mk(hands), width=90.0, ends="open")
+    got = path_row_costs(p)
+    want = np.full(p.band.n, float(p.uncovered_cost))
+    for i in np.unique(p.path[:, 0]):
+        row = p.local_cost(p.band, int(i), int(i) + 1)[0]
+        js = p.path[p.path[:, 0] == i, 1]
+        want[i] = np.mean([row[j - p.band.lo[i]] for j in js])
+    assert (~np.isin(np.arange(p.band.n), p.path[:, 0])).any()  # the case has uncovered rows
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+
+
+def test_local_ratio_is_low_on_the_genuine_span_and_near_one_on_other_material(takes):
+    """The check's per-frame costs: a genuine pair's ratio stays well below 1 nearly everywhere;
+    against another performance it is near 1 (the check's rows, recorded by the splice)."""
+    sep, other = takes
+    for hands, lo, hi in ((sep.hands, 0.0, 0.75), (other.hands, 0.75, 1.5)):
+        r = splicer.splice(sep.body, hands, side="right")
+        ev = r.sides["right"].alignment.evidence
+        assert ev.rows is not None and len(ev.rows) == len(ev.backwards_rows) == round((sep.body.n_frames - 1) * ev.fps / sep.body.fps) + 1
+        ratio = ev.local_ratio(sep.body.n_frames, sep.body.fps, D.UNMATCHED_WINDOW_S)
+        assert ratio.shape == (sep.body.n_frames,)
+        assert lo <= np.median(ratio) <= hi, np.median(ratio)
+
+
+def test_local_ratio_without_rows_is_none_and_checks_its_arguments():
+    assert Evidence(1.0, 2.0, 10.0).local_ratio(5, 30.0, 2.0) is None
+    ev = Evidence(1.0, 2.0, 10.0, rows=np.ones(3), backwards_rows=np.zeros(3))
+    assert np.isnan(ev.local_ratio(3, 10.0, 1.0)).all()  # the backwards pass cost nothing: no verdict
+    with pytest.raises(ValueError):
+        ev.local_ratio(3, 0.0, 1.0)
+    assert Evidence(1.0, 2.0, 10.0) == Evidence(1.0, 2.0, 10.0, rows=np.ones(2))  # the rows do not compare

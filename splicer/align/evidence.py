@@ -18,12 +18,14 @@ same for both, so the ratio compares like with like.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+import numpy as np
 
 from ..rig.markers import Markers
 from .paths import resample_markers
 
-__all__ = ["CHECK_FPS", "MAX_CHECK_CELLS", "Evidence", "played_backwards", "match_evidence"]
+__all__ = ["CHECK_FPS", "MAX_CHECK_CELLS", "Evidence", "played_backwards", "match_evidence", "path_row_costs"]
 
 #: Rate of the check's two passes, frames per second.
 CHECK_FPS = 10.0
@@ -43,17 +45,90 @@ class Evidence:
         over the same body frames.
     fps : float
         The rate both passes ran at.
+    rows, backwards_rows : np.ndarray [shape=(k,)] or None
+        Per body frame at ``fps``: each pass's mean local cost on its path there, the pass's
+        uncovered penalty where its path leaves the frame uncovered (:func:`path_row_costs`);
+        None when not recorded.  :meth:`local_ratio` compares them.
     """
 
     cost: float
     backwards_cost: float
     fps: float
+    rows: np.ndarray | None = field(default=None, compare=False, repr=False)
+    backwards_rows: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @property
     def ratio(self) -> float:
         """``cost / backwards_cost``: near 1 when the takes may not show the same performance; NaN
         when the backwards pass cost nothing."""
         return self.cost / self.backwards_cost if self.backwards_cost > 0 else math.nan
+
+    def local_ratio(self, n: int, fps: float, window_s: float) -> np.ndarray | None:
+        """Per body frame (``n`` frames at ``fps``): the two passes' costs, each averaged over a
+        centred window of ``window_s`` seconds, divided (this pass's over the backwards one's).
+
+        Near 1 (or above) where the hands' material matched to the body there is no better than
+        what the pass reaches on the hands take played backwards: unrelated material, or motion
+        too still to tell; well below 1 where the takes show the same performance.  NaN where the
+        backwards pass costs nothing there; None when the rows were not recorded.
+
+        Examples
+        --------
+        >>> ev = Evidence(6.0, 12.0, 2.0, rows=np.array([1.0, 1.0, 1.0, 4.0]),
+        ...               backwards_rows=np.array([4.0, 4.0, 4.0, 4.0]))
+        >>> ev.local_ratio(4, 2.0, 0.5).tolist()  # a window of one row, at the rows' own rate
+        [0.25, 0.25, 0.25, 1.0]
+        >>> ev.local_ratio(4, 2.0, 1.5).tolist()  # three rows: (1 + 1) / 8 at the first (zeros beyond), ...
+        [0.25, 0.25, 0.5, 0.625]
+        >>> ev.local_ratio(3, 1.0, 0.5).tolist()  # body frame i at 1 fps is row 2 i (the last row at most)
+        [0.25, 0.25, 1.0]
+        """
+        if self.rows is None or self.backwards_rows is None or len(self.rows) == 0:
+            return None
+        if not (fps > 0 and window_s >= 0):
+            raise ValueError(f"fps must be positive and window_s >= 0, got {fps!r}, {window_s!r}")
+        k = max(1, int(round(window_s * self.fps)))
+        kernel = np.ones(k)
+        a = np.convolve(np.asarray(self.rows, dtype=np.float64), kernel, mode="same")
+        b = np.convolve(np.asarray(self.backwards_rows, dtype=np.float64), kernel, mode="same")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = np.where(b > 0, a / b, np.nan)
+        at = np.minimum(np.round(np.arange(n) * (self.fps / fps)).astype(np.int64), len(r) - 1)
+        return r[at]
+
+
+def path_row_costs(p) -> np.ndarray:
+    """Per body frame of pass ``p`` (a :class:`~splicer.align.passes.PassResult`): the mean
+    local cost of its path's cells in that row; the pass's uncovered penalty in the rows its
+    path does not reach (open ends).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> band = SimpleNamespace(n=3, lo=np.array([0, 0, 1]))
+    >>> costs = np.array([[1.0, 3.0, 9.0], [5.0, 7.0, 9.0], [2.0, 4.0, 9.0]])  # rows of the band
+    >>> p = SimpleNamespace(band=band, path=np.array([[0, 0], [0, 1], [1, 1]]), uncovered_cost=6.0,
+    ...                     local_cost=lambda band, i0, i1: costs[i0:i1])
+    >>> path_row_costs(p).tolist()  # row 0: cells 0, 1; row 1: cell 1; row 2 uncovered
+    [2.0, 7.0, 6.0]
+    """
+    band = p.band
+    n = int(band.n)
+    path = np.asarray(p.path, dtype=np.int64)
+    total = np.zeros(n)
+    count = np.zeros(n)
+    if len(path):
+        block = 4096  # rows of band costs at a time
+        for i0 in range(int(path[0, 0]), int(path[-1, 0]) + 1, block):
+            i1 = min(n, i0 + block)
+            sel = (path[:, 0] >= i0) & (path[:, 0] < i1)
+            if not sel.any():
+                continue
+            c = np.asarray(p.local_cost(band, i0, i1), dtype=np.float64)
+            ii, jj = path[sel, 0], path[sel, 1]
+            total[i0:i1] += np.bincount(ii - i0, weights=c[ii - i0, jj - band.lo[ii]], minlength=i1 - i0)
+            count[i0:i1] += np.bincount(ii - i0, minlength=i1 - i0)
+    return np.where(count > 0, total / np.maximum(count, 1.0), float(p.uncovered_cost))
 
 
 def played_backwards(markers: Markers) -> Markers:
@@ -110,10 +185,11 @@ def match_evidence(body: Markers, hands: Markers, *, ends: str, others=(), fps: 
     hs = down(hands)
     arms0 = [(down(a.body), down(a.hands), a) for a in others]
     width = max(3.0, share * b.n_frames) if ends == "fixed" else max(3.0, 3.0 * rate)
-    costs = []
+    costs, rows = [], []
     for k, turn in enumerate((lambda x: x, played_backwards)):
         arms = tuple(Arm(ab, turn(ah), a.smooth_s, a.position_weight) for ab, ah, a in arms0)
         step = None if progress is None else (lambda f, k=k: progress((k + f) / 2.0))
         p = pass1(b, turn(hs), width=width, ends=ends, others=arms, progress=step, **options)
         costs.append(float(p.cost))
-    return Evidence(costs[0], costs[1], rate)
+        rows.append(path_row_costs(p))
+    return Evidence(costs[0], costs[1], rate, rows=rows[0], backwards_rows=rows[1])

@@ -15,7 +15,10 @@ gestures), which the open ends cannot skip on both takes at once.  The risk stag
 unsure there; a stretch of at least :data:`splicer.defaults.UNSURE_EDGE_S` next to the
 uncovered frames whose estimated error exceeds :data:`splicer.defaults.UNSURE_EDGE_ERROR_S`
 throughout is taken as uncovered too: those body frames keep their own fingers, and the
-report lists them with the other uncovered frames.
+report lists them with the other uncovered frames.  Then :func:`unmatched_edges` does the same
+where the alignment there costs nearly what it costs against the hands take played backwards
+(:meth:`splicer.align.evidence.Evidence.local_ratio` over :data:`splicer.defaults.UNMATCHED_RATIO`
+for at least :data:`splicer.defaults.UNMATCHED_EDGE_S`): material no better than unrelated.
 """
 
 from __future__ import annotations
@@ -25,10 +28,11 @@ from dataclasses import replace
 import numpy as np
 
 from ..align.risk import distance_to_uncovered
-from ..defaults import COVERAGE_EDGE_S, UNSURE_EDGE_ERROR_S, UNSURE_EDGE_S
+from ..defaults import (COVERAGE_EDGE_S, UNMATCHED_EDGE_S, UNMATCHED_RATIO, UNMATCHED_WINDOW_S,
+                        UNSURE_EDGE_ERROR_S, UNSURE_EDGE_S)
 from ..runs import true_runs
 
-__all__ = ["coverage_edges", "mark_coverage_edges", "unsure_edges", "uncover_unsure_edges"]
+__all__ = ["coverage_edges", "mark_coverage_edges", "unsure_edges", "unmatched_edges", "uncover_unsure_edges"]
 
 
 def unsure_edges(hands_frame, est_error_s, fps: float, *, min_s: float = UNSURE_EDGE_S,
@@ -76,25 +80,92 @@ def unsure_edges(hands_frame, est_error_s, fps: float, *, min_s: float = UNSURE_
     e = np.asarray(est_error_s, dtype=np.float64)
     if h.ndim != 1 or e.shape != h.shape:
         raise ValueError(f"hands_frame and est_error_s must have one shape (n,), got {h.shape}, {e.shape}")
-    if not (fps > 0 and np.isfinite(fps)) or not (min_s >= 0 and np.isfinite(min_s)) or not (error_s >= 0):
-        raise ValueError(f"fps must be positive, min_s and error_s >= 0, got {fps!r}, {min_s!r}, {error_s!r}")
+    if not (error_s >= 0):
+        raise ValueError(f"error_s must be >= 0, got {error_s!r}")
+    return _edge_runs(h, np.nan_to_num(e, nan=0.0) > error_s, fps, min_s, pinned)
+
+
+def unmatched_edges(hands_frame, ratio, fps: float, *, min_s: float = UNMATCHED_EDGE_S,
+                    ratio_above: float = UNMATCHED_RATIO, beyond_s: float = COVERAGE_EDGE_S,
+                    pinned=()) -> np.ndarray:
+    """Covered body frames to take as uncovered: stretches next to uncovered ones whose hands
+    material matches the body no better than the hands take played backwards.
+
+    The same stretches as :func:`unsure_edges` (from an end of the covered span inside the
+    body, at least ``min_s`` seconds, stopping at a frame of the span that is kept, never
+    through a pin), with every frame's :meth:`~splicer.align.evidence.Evidence.local_ratio`
+    above ``ratio_above``, and only where more than ``beyond_s`` seconds of uncovered frames
+    lie past that end: an end nearer the body's own first (last) frame is within the
+    precision the open ends locate it to (:data:`splicer.defaults.COVERAGE_EDGE_S`), so the
+    takes start (stop) together there, and a ratio near 1 there says only that the motion
+    does not tell (a still or noisy start: held-out zeggs *imitation*, seed 102, whose path
+    left the body's first 6 frames uncovered, lost 3.5 s of genuine material to the rule
+    without this).
+
+    Parameters
+    ----------
+    hands_frame : np.ndarray [shape=(n,)]
+        Hands-file frame of each body frame; NaN where uncovered (a single covered span).
+    ratio : np.ndarray [shape=(n,)]
+        The alignment's cost over its cost against the hands take played backwards, locally,
+        per body frame (NaN: not known, never taken).
+    fps : float
+        Body frames per second.
+    min_s, ratio_above : float
+        Shortest stretch, seconds (0: none is taken); the ratio it must exceed throughout.
+    beyond_s : float
+        Uncovered seconds past the end needed (more than this).
+    pinned : iterable of int
+        Body frames of the pins: never taken.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,), dtype=bool]
+
+    Examples
+    --------
+    >>> hf = np.array([0, 1, 2, 3, 4, 5, 6, 7, np.nan, np.nan])
+    >>> ratio = np.array([0.4, 0.5, 0.9, 0.5, 0.95, 0.9, 1.1, 0.9, np.nan, np.nan])
+    >>> unmatched_edges(hf, ratio, 10.0, min_s=0.3, beyond_s=0.1).astype(int).tolist()  # the start is the body's
+    [0, 0, 0, 0, 1, 1, 1, 1, 0, 0]
+    >>> unmatched_edges(hf, ratio, 10.0, min_s=0.5, beyond_s=0.1).astype(int).tolist()  # too short
+    [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+    >>> unmatched_edges(hf, ratio, 10.0, min_s=0.3, beyond_s=0.2).astype(int).tolist()  # 0.2 s past the end: too few
+    [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+    """
+    h = np.asarray(hands_frame, dtype=np.float64)
+    r = np.asarray(ratio, dtype=np.float64)
+    if h.ndim != 1 or r.shape != h.shape:
+        raise ValueError(f"hands_frame and ratio must have one shape (n,), got {h.shape}, {r.shape}")
+    if not (ratio_above >= 0) or not (beyond_s >= 0):
+        raise ValueError(f"ratio_above and beyond_s must be >= 0, got {ratio_above!r}, {beyond_s!r}")
+    return _edge_runs(h, np.nan_to_num(r, nan=-np.inf) > ratio_above, fps, min_s, pinned, beyond_s)
+
+
+def _edge_runs(h: np.ndarray, flag: np.ndarray, fps: float, min_s: float, pinned, beyond_s: float = 0.0) -> np.ndarray:
+    """The runs of ``flag`` from an end of the covered span (finite ``h``) inside the body (more
+    than ``beyond_s`` seconds of uncovered frames past it), at least ``min_s`` seconds, stopped
+    by a covered frame not flagged and not pinned (:func:`unsure_edges`)."""
+    if not (fps > 0 and np.isfinite(fps)) or not (min_s >= 0 and np.isfinite(min_s)):
+        raise ValueError(f"fps must be positive and min_s >= 0, got {fps!r}, {min_s!r}")
     n = len(h)
     out = np.zeros(n, dtype=bool)
     cov = np.flatnonzero(np.isfinite(h))
     if len(cov) == 0 or min_s == 0:
         return out
     need = max(1, int(round(min_s * fps)))
-    unsure = np.isfinite(h) & (np.nan_to_num(e, nan=0.0) > error_s)
+    flag = np.isfinite(h) & flag
     pins = np.zeros(n, dtype=bool)
     pins[np.asarray([p for p in pinned if 0 <= p < n], dtype=np.int64)] = True
-    unsure &= ~pins
+    flag &= ~pins
     a, b = int(cov[0]), int(cov[-1])
-    starts, stops = true_runs(unsure)  # unsure runs [lo, hi); the frame past each end stops it
+    past = beyond_s * fps  # uncovered frames past an end: more than this
+    starts, stops = true_runs(flag)  # flagged runs [lo, hi); the frame past each end stops it
     for lo, hi in zip(starts.tolist(), stops.tolist()):
-        at_start = lo == a and a > 0 and hi <= b  # from the span's first frame, stopped inside it
-        at_end = hi == b + 1 and b < n - 1 and lo > a  # up to the span's last frame, stopped inside it
+        at_start = lo == a and a > past and hi <= b  # from the span's first frame, stopped inside it
+        at_end = hi == b + 1 and n - 1 - b > past and lo > a  # up to the span's last frame, stopped inside it
         stop = hi if at_start else lo - 1
-        if (at_start or at_end) and hi - lo >= need and not pins[stop]:  # stopped by a sure, unpinned frame
+        if (at_start or at_end) and hi - lo >= need and not pins[stop]:  # stopped by a kept, unpinned frame
             out[lo:hi] = True
     return out
 
@@ -134,16 +205,16 @@ def coverage_edges(hands_frame, fps: float, edge_s: float = COVERAGE_EDGE_S) -> 
 
 
 def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = UNSURE_EDGE_ERROR_S) -> dict:
-    """Each side's :func:`unsure_edges` taken as uncovered (after the risk stage, before
-    :func:`mark_coverage_edges`).
+    """Each side's :func:`unsure_edges`, then its :func:`unmatched_edges`, taken as uncovered
+    (after the risk stage, before :func:`mark_coverage_edges`).
 
     Parameters
     ----------
     sides : dict of str -> SideResult
     opts : SpliceOptions, optional
-        ``unsure_edge_s`` (0: nothing changes).
+        ``unsure_edge_s``, ``unmatched_edge_s`` (0: that rule is off).
     log : Log, optional
-        Receives one note per side that changed.
+        Receives one note per side and rule that changed it.
 
     Returns
     -------
@@ -151,31 +222,49 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
         A side that changed has NaN in ``hands_frame`` there, its alignment's ``covered``
         span narrowed and its confidence uncovered there
         (:meth:`~splicer.align.confidence.Confidence.uncovered_at`); the others unchanged.
+        The unmatched stretches need the check against the hands take played backwards
+        (``alignment.evidence`` with its rows): without it, only the unsure ones are taken.
     """
     min_s = UNSURE_EDGE_S if opts is None else opts.unsure_edge_s
+    unmatched_s = UNMATCHED_EDGE_S if opts is None else opts.unmatched_edge_s
     out = {}
     for s, r in sides.items():
         conf = r.alignment.confidence
-        if conf is None or r.alignment.covered is None or not min_s:
+        if conf is None or r.alignment.covered is None:
             out[s] = r
             continue
         fps = r.markers.spaces.body_fps
-        take = unsure_edges(r.hands_frame, conf.est_error_s, fps, min_s=min_s, error_s=error_s,
-                            pinned=[p.body for p in r.pins])
+        pinned = [p.body for p in r.pins]
+        hf = np.asarray(r.hands_frame, dtype=np.float64)
+        take = unsure_edges(hf, conf.est_error_s, fps, min_s=min_s, error_s=error_s, pinned=pinned)
+        notes = []
+        if take.any():
+            notes.append((take, f"the alignment there is unsure throughout (estimated error over {error_s:g} s for at "
+                                f"least {min_s:g} s)"))
+        ev = r.alignment.evidence
+        ratio = None if ev is None or not unmatched_s else ev.local_ratio(len(hf), fps, UNMATCHED_WINDOW_S)
+        if ratio is not None:
+            more = unmatched_edges(np.where(take, np.nan, hf), ratio, fps, min_s=unmatched_s,
+                                   ratio_above=UNMATCHED_RATIO, beyond_s=COVERAGE_EDGE_S, pinned=pinned)
+            if more.any():
+                take = take | more
+                notes.append((more, f"the hands' material matched there fits the body no better than the hands take "
+                                    f"played backwards (over {100 * UNMATCHED_RATIO:.0f}% of its cost for at least "
+                                    f"{unmatched_s:g} s)"))
         if not take.any():
             out[s] = r
             continue
-        hf = np.where(take, np.nan, np.asarray(r.hands_frame, dtype=np.float64))
+        hf = np.where(take, np.nan, hf)
         cov = np.flatnonzero(np.isfinite(hf))
         aln = replace(r.alignment, covered=(int(cov[0]), int(cov[-1])), confidence=conf.uncovered_at(take))
         out[s] = replace(r, hands_frame=hf, alignment=aln)
         if log is not None:
             from ..transfer.timemap import frame_ranges
 
-            spans = ", ".join(f"{a}-{b} ({(b - a + 1) / fps:.1f} s)" for a, b in frame_ranges(take))
-            log.note(f"{s} side: body frames {spans} next to the uncovered ones are taken as uncovered too: the "
-                     f"alignment there is unsure throughout (estimated error over {error_s:g} s for at least "
-                     f"{min_s:g} s), as where the hands take holds material from outside the body's performance")
+            for mask, why in notes:
+                spans = ", ".join(f"{a}-{b} ({(b - a + 1) / fps:.1f} s)" for a, b in frame_ranges(mask))
+                log.note(f"{s} side: body frames {spans} next to the uncovered ones are taken as uncovered too: {why}, "
+                         "as where the hands take holds material from outside the body's performance")
     return out
 
 

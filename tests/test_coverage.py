@@ -264,3 +264,50 @@ def test_unmatched_end_of_hands_covering_part_of_the_body_keeps_the_body_fingers
         assert len(far) > 0
         np.testing.assert_allclose(on.motion.joint_rotations(joints)[far], sep.body.joint_rotations(joints)[far],
                                    atol=1e-9)
+
+
+def _edges_reference(hf, flag, fps, min_s, pinned, beyond_s):
+    """Slow reference of the edge rules: walk in from each end of the covered span."""
+    n = len(hf)
+    out = np.zeros(n, dtype=bool)
+    cov = np.flatnonzero(np.isfinite(hf))
+    if len(cov) == 0 or min_s == 0:
+        return out
+    need = max(1, int(round(min_s * fps)))
+    a, b = int(cov[0]), int(cov[-1])
+    for end, step, past in ((a, 1, a), (b, -1, n - 1 - b)):
+        if past <= beyond_s * fps:
+            continue
+        i, k = end, 0
+        while a <= i <= b and flag[i] and i not in pinned:
+            i, k = i + step, k + 1
+        if k >= need and a <= i <= b and i not in pinned:  # stopped inside the span by a kept frame
+            lo, hi = (end, end + k) if step == 1 else (end - k + 1, end + 1)
+            out[lo:hi] = True
+    return out
+
+
+def test_edge_rules_against_a_slow_reference():
+    """Random spans, ratios, estimates and pins: both rules equal a walk in from each end."""
+    from splicer.stages.coverage import unmatched_edges, unsure_edges
+
+    rng = np.random.default_rng(0)
+    for _ in range(3000):
+        n = int(rng.integers(1, 40))
+        hf = np.arange(n, dtype=np.float64)
+        a, b = sorted(rng.integers(0, n, size=2))
+        hf[:a] = np.nan
+        hf[b + 1:] = np.nan
+        if rng.random() < 0.05:
+            hf[:] = np.nan
+        ratio = np.where(rng.random(n) < 0.7, rng.uniform(0.86, 1.2, n), rng.uniform(0.0, 0.85, n))
+        ratio[rng.random(n) < 0.05] = np.nan
+        est = rng.uniform(0.0, 0.5, n)
+        pinned = set(rng.integers(0, n, size=int(rng.integers(0, 3))).tolist())
+        fps, min_s, beyond_s = 10.0, float(rng.choice([0.0, 0.1, 0.3, 0.5])), float(rng.choice([0.0, 0.15, 0.35]))
+        got = unmatched_edges(hf, ratio, fps, min_s=min_s, ratio_above=0.85, beyond_s=beyond_s, pinned=sorted(pinned))
+        want = _edges_reference(hf, np.nan_to_num(ratio, nan=-1.0) > 0.85, fps, min_s, pinned, beyond_s)
+        np.testing.assert_array_equal(got, want)
+        got = unsure_edges(hf, est, fps, min_s=min_s, error_s=0.2, pinned=sorted(pinned))
+        want = _edges_reference(hf, est > 0.2, fps, min_s, pinned, 0.0)
+        np.testing.assert_array_equal(got, want)

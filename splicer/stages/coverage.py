@@ -243,18 +243,19 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
                                 f"least {min_s:g} s)"))
         ev = r.alignment.evidence
         ratio = None if ev is None or not unmatched_s else ev.local_ratio(len(hf), fps, UNMATCHED_WINDOW_S)
+        hf = np.where(take, np.nan, hf)  # the unsure stretches out: the unmatched ones start where they stop
         if ratio is not None:
-            more = unmatched_edges(np.where(take, np.nan, hf), ratio, fps, min_s=unmatched_s,
-                                   ratio_above=UNMATCHED_RATIO, beyond_s=COVERAGE_EDGE_S, pinned=pinned)
+            more = unmatched_edges(hf, ratio, fps, min_s=unmatched_s, ratio_above=UNMATCHED_RATIO,
+                                   beyond_s=COVERAGE_EDGE_S, pinned=pinned)
             if more.any():
                 take = take | more
+                hf = np.where(more, np.nan, hf)
                 notes.append((more, f"the hands' material matched there fits the body no better than the hands take "
                                     f"played backwards (over {100 * UNMATCHED_RATIO:.0f}% of its cost for at least "
                                     f"{unmatched_s:g} s)"))
         if not take.any():
             out[s] = r
             continue
-        hf = np.where(take, np.nan, hf)
         cov = np.flatnonzero(np.isfinite(hf))
         aln = replace(r.alignment, covered=(int(cov[0]), int(cov[-1])), confidence=conf.uncovered_at(take))
         out[s] = replace(r, hands_frame=hf, alignment=aln)

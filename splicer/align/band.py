@@ -46,7 +46,7 @@ import numpy as np
 from ..errors import BandError, ConstraintError
 from .band_width import band_frames  # noqa: F401  (re-exported: one place for band widths)
 
-__all__ = ["Constraint", "Band", "band_frames", "make_band", "full_band"]
+__all__ = ["Constraint", "Band", "band_frames", "make_band", "full_band", "path_band"]
 
 EPS = 1e-9
 
@@ -371,3 +371,39 @@ def full_band(n: int, m: int, constraints=(), *, open_begin: bool = True, open_e
     lo, hi = _trim(lo, hi)
     return Band(n=n, m=m, width=math.inf, lo=lo, hi=hi, constraints=cons, open_begin=open_begin,
                 open_end=open_end)
+
+
+def path_band(path: np.ndarray, n: int, m: int) -> Band:
+    """The narrowest open band holding a monotone path: each row its path cells' columns.
+
+    Rows before the path's first row hold its first column, rows after its last row its last
+    column, so every row has a cell (the band invariants) and the path's cells are exactly the
+    band's cells in the rows it visits.
+
+    Parameters
+    ----------
+    path : np.ndarray [shape=(K, 2), dtype=int]
+        (row, column) cells, rows and columns non-decreasing, steps of at most one in each.
+    n, m : int
+        The matrix's rows and columns.
+
+    Examples
+    --------
+    >>> b = path_band(np.array([[1, 0], [1, 1], [2, 2], [3, 2]]), 5, 4)
+    >>> b.lo.tolist(), b.hi.tolist()
+    ([0, 0, 2, 2, 2], [0, 1, 2, 2, 2])
+    """
+    path = np.asarray(path, dtype=np.int64)
+    if path.ndim != 2 or path.shape[1] != 2 or len(path) == 0:
+        raise BandError("path_band needs a non-empty (K, 2) path")
+    ii, jj = path[:, 0], path[:, 1]
+    if ii.min() < 0 or ii.max() >= n or jj.min() < 0 or jj.max() >= m:
+        raise BandError(f"path_band: the path leaves the {n} x {m} matrix")
+    lo = np.full(n, m, np.int64)
+    hi = np.full(n, -1, np.int64)
+    np.minimum.at(lo, ii, jj)
+    np.maximum.at(hi, ii, jj)
+    first, last = int(ii[0]), int(ii[-1])
+    lo[:first] = hi[:first] = jj[0]
+    lo[last + 1:] = hi[last + 1:] = jj[-1]
+    return Band(n=n, m=m, width=1.0, lo=lo, hi=hi, open_begin=True, open_end=True)

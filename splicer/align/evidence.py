@@ -25,7 +25,7 @@ import numpy as np
 from ..rig.markers import Markers
 from .paths import resample_markers
 
-__all__ = ["CHECK_FPS", "MAX_CHECK_CELLS", "Evidence", "played_backwards", "match_evidence", "path_row_costs"]
+__all__ = ["CHECK_FPS", "MAX_CHECK_CELLS", "Evidence", "played_backwards", "match_evidence", "path_row_costs", "costs_along"]
 
 #: Rate of the check's two passes, frames per second.
 CHECK_FPS = 10.0
@@ -129,6 +129,31 @@ def path_row_costs(p) -> np.ndarray:
             total[i0:i1] += np.bincount(ii - i0, weights=c[ii - i0, jj - band.lo[ii]], minlength=i1 - i0)
             count[i0:i1] += np.bincount(ii - i0, minlength=i1 - i0)
     return np.where(count > 0, total / np.maximum(count, 1.0), float(p.uncovered_cost))
+
+
+def costs_along(cost, path: np.ndarray, n: int, m: int) -> np.ndarray:
+    """Per row of an ``n x m`` matrix: the mean of ``cost`` over ``path``'s cells in that row, NaN
+    in the rows the path does not visit.
+
+    ``cost(band, i0, i1)`` gives a band's rows ``i0..i1-1`` of local costs (a pass's
+    ``local_cost`` or one of its ``arm_costs``); the path need not lie in that pass's band
+    (:func:`splicer.align.band.path_band`).
+
+    Examples
+    --------
+    >>> full = np.pad(np.arange(12.0).reshape(3, 4), ((0, 0), (0, 4)))  # cost of cell (i, j): 4 i + j
+    >>> w = 2  # the rows of a band's costs: its widest row's cells from each row's first column
+    >>> cost = lambda band, i0, i1: np.array([full[i, band.lo[i]:band.lo[i] + w] for i in range(i0, i1)])
+    >>> costs_along(cost, np.array([[0, 0], [0, 1], [1, 2]]), 3, 4).tolist()
+    [0.5, 6.0, nan]
+    """
+    from types import SimpleNamespace
+
+    from .band import path_band
+
+    band = path_band(path, n, m)
+    p = SimpleNamespace(band=band, path=np.asarray(path, dtype=np.int64), uncovered_cost=np.nan, local_cost=cost)
+    return path_row_costs(p)
 
 
 def played_backwards(markers: Markers) -> Markers:

@@ -309,7 +309,9 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                 together = p1.path
                 if why is None and others:  # an arm's own path corner to corner: the takes start and end together
                     own_paths = arm_paths(p1, progress=check)
-                    arm, together = _arm_together(p1, own_paths, sides, n, m, fps, opts.coarse_above_s)
+                    arm, together, kept = _arm_together(p1, own_paths, sides, n, m, fps, opts.coarse_above_s)
+                    for msg in kept:
+                        log.note(f"{who}: {msg}")
                     if together is not None:
                         why = _TOGETHER_WHY
                         log.note(f"{who}: the {arm} arm's own alignment runs from the takes' first frames to their "
@@ -561,26 +563,76 @@ def _choose_ends(p1, n: int, m: int, fps: float, pins) -> str | None:
 
 def _arm_together(p1, own_paths: list, sides: list, n: int, m: int, fps: float, long_s: float):
     """After an open-ended pass 1 over both arms that did not run corner to corner: the first
-    arm (name, full-rate path) whose own path does, else ``(None, None)``.
+    arm (name, full-rate path) whose own path does and that the other arms do not contradict,
+    else ``(None, None)``; and a note for each such path not trusted (:func:`_contradicted`).
 
     Each arm's own path in the pass's band is asked first; then (takes up to ``long_s`` seconds,
     where the coarse matrix is small) each arm aligned as if alone
     (:func:`splicer.align.passes.arm_alone`: its own locating pass and penalty).  The shared
     path can lose a corner that one arm alone finds (held-out zeggs *speed*, seed 102: the
     hands run 3x slower over the last 7.6 s, and the shared locating path skipped them);
-    aligned each on its own, the pair went end to end by :func:`agree_ends`, and so it does here."""
+    aligned each on its own, the pair went end to end by :func:`agree_ends`, and so it does here.
+
+    Returns
+    -------
+    (str or None, np.ndarray or None, list of str)
+    """
     from ..align.passes import arm_alone
 
-    for side, q in zip(sides, own_paths):
-        if _corner_to_corner(q, n, m, fps):
-            return side, q
+    notes: list = []
+
+    def trusted(k, q):
+        why = _contradicted(p1, k, q, sides, n, m, fps)
+        if why is not None:
+            notes.append(why)
+        return why is None
+
+    for k, (side, q) in enumerate(zip(sides, own_paths)):
+        if _corner_to_corner(q, n, m, fps) and trusted(k, q):
+            return side, q, notes
     if p1.located is None or n / fps > long_s or not p1.located.arm_costs:
-        return None, None
+        return None, None, notes
     for k, side in enumerate(sides):
         q = arm_alone(p1, k)
-        if _corner_to_corner(q, n, m, fps):
-            return side, q
-    return None, None
+        if _corner_to_corner(q, n, m, fps) and trusted(k, q):
+            return side, q, notes
+    return None, None, notes
+
+
+def _contradicted(p1, k: int, q: np.ndarray, sides: list, n: int, m: int, fps: float) -> str | None:
+    """Why arm ``k``'s corner-to-corner path ``q`` is not trusted, or None.
+
+    Where the shared open-ended path leaves at least :data:`_TOGETHER_S` of body frames
+    uncovered, ``q`` gives them hands material.  If another arm's local cost along ``q`` over
+    those frames averages at least that arm's uncovered penalty (the cost above which its own
+    alignment would rather leave a frame uncovered), that arm says the material there is not
+    the body's performance: the takes do not start and end together.  On the protocol's
+    *all* scenario (hands covering 59-81 % of the body, tuning seeds 0-7 and 200-219) the other
+    arm's cost there was 1.9-4.3x its penalty; where the shared path covered every body frame
+    (the rule's genuine cases) there is nothing to check.
+    """
+    a, b = (int(v) for v in p1.covered)
+    rows = np.zeros(n, bool)
+    rows[:a] = True
+    rows[b + 1:] = True
+    rows &= np.bincount(np.asarray(q)[:, 0], minlength=n) > 0
+    if rows.sum() < _TOGETHER_S * fps:
+        return None
+    from ..align.evidence import costs_along
+    from ..runs import true_runs
+
+    for o in range(len(p1.arm_costs)):
+        if o == k:
+            continue
+        u = float(p1.arm_uncovered[o]) if o < len(p1.arm_uncovered) else float(p1.uncovered_cost)
+        c = costs_along(p1.arm_costs[o], q, n, m)[rows]
+        if np.mean(c) >= u:
+            spans = ", ".join(f"{i}-{j - 1}" for i, j in zip(*true_runs(rows)))
+            return (f"the {sides[k]} arm's own alignment runs from the takes' first frames to their last, but over "
+                    f"body frames {spans}, which the open ends leave uncovered, the {sides[o]} arm's motion matches it "
+                    f"no better than unrelated material ({np.mean(c) / u:.1f}x its uncovered penalty): the open ends "
+                    "are kept")
+    return None
 
 
 def _corner_to_corner(path: np.ndarray, n: int, m: int, fps: float) -> bool:

@@ -191,3 +191,43 @@ def test_band_record_normalises_its_fields_and_leaves_the_inputs_alone():
     assert b.constraints == (Constraint(1, 1, 0),) and isinstance(b.constraints, tuple)
     assert b.lo.dtype == np.int64 and b.hi.dtype == np.int64
     assert lo.flags.writeable and hi.flags.writeable  # copies were made read-only, not the inputs
+
+
+def _random_path(rng, n, m):
+    """A monotone path of unit steps from a random cell to a later one."""
+    i, j = int(rng.integers(0, n)), int(rng.integers(0, m))
+    cells = [(i, j)]
+    while True:
+        moves = [(di, dj) for di, dj in ((1, 0), (0, 1), (1, 1)) if i + di < n and j + dj < m]
+        if not moves or rng.random() < 0.02:
+            return np.array(cells)
+        di, dj = moves[int(rng.integers(len(moves)))]
+        i, j = i + di, j + dj
+        cells.append((i, j))
+
+
+def test_path_band_holds_exactly_the_path_in_its_rows():
+    """path_band against a slow reference on 500 random monotone paths: in every row the path
+    visits, the band's cells are that row's path cells (a connected run of columns); the other
+    rows hold one cell at the path's first or last column; the band invariants hold."""
+    from splicer.align.band import path_band
+
+    rng = np.random.default_rng(7)
+    for _ in range(500):
+        n, m = int(rng.integers(1, 40)), int(rng.integers(1, 40))
+        q = _random_path(rng, n, m)
+        b = path_band(q, n, m)
+        for i in range(n):
+            js = q[q[:, 0] == i, 1]
+            if len(js):
+                assert (b.lo[i], b.hi[i]) == (js.min(), js.max())
+                assert len(js) == js.max() - js.min() + 1
+            elif i < q[0, 0]:
+                assert b.lo[i] == b.hi[i] == q[0, 1]
+            else:
+                assert b.lo[i] == b.hi[i] == q[-1, 1]
+        assert all(b.contains(int(i), int(j)) for i, j in q)
+    with pytest.raises(BandError, match="leaves the 3 x 3 matrix"):
+        path_band(np.array([[0, 0], [1, 3]]), 3, 3)
+    with pytest.raises(BandError, match="non-empty"):
+        path_band(np.zeros((0, 2), int), 3, 3)

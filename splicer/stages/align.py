@@ -619,7 +619,7 @@ def _contradicted(p1, k: int, q: np.ndarray, sides: list, n: int, m: int, fps: f
     if rows.sum() < _TOGETHER_S * fps:
         return None
     from ..align.evidence import costs_along
-    from ..runs import true_runs
+    from ..transfer.timemap import frame_ranges
 
     for o in range(len(p1.arm_costs)):
         if o == k:
@@ -627,7 +627,7 @@ def _contradicted(p1, k: int, q: np.ndarray, sides: list, n: int, m: int, fps: f
         u = float(p1.arm_uncovered[o]) if o < len(p1.arm_uncovered) else float(p1.uncovered_cost)
         c = costs_along(p1.arm_costs[o], q, n, m)[rows]
         if np.mean(c) >= u:
-            spans = ", ".join(f"{i}-{j - 1}" for i, j in zip(*true_runs(rows)))
+            spans = ", ".join(f"{i}-{j}" for i, j in frame_ranges(rows))
             return (f"the {sides[k]} arm's own alignment runs from the takes' first frames to their last, but over "
                     f"body frames {spans}, which the open ends leave uncovered, the {sides[o]} arm's motion matches it "
                     f"no better than unrelated material ({np.mean(c) / u:.1f}x its uncovered penalty): the open ends "

@@ -16,7 +16,7 @@ Stages (each returns a typed result; :func:`splice` composes them)
     :func:`load_inputs` -> :func:`find_rig` -> :func:`condition_hands` -> :func:`side_markers`
     -> :func:`align_side` (both sides: :func:`align_pair`, with one noise decision,
     :func:`phase_smoothing`) -> :func:`time_map` -> on the sides' :class:`SideResult`:
-    :func:`cross_check` -> :func:`trend_time_maps` -> :func:`estimate_risk` ->
+    :func:`cross_check` -> :func:`trend_time_maps` -> :func:`refine_time_maps` -> :func:`estimate_risk` ->
     :func:`uncover_unsure_edges` -> :func:`mark_coverage_edges` -> :func:`transfer_side` -> :func:`check_fingers` -> :func:`build_report`.
 The constraints file
     :func:`read_config`, :func:`parse_config`, :class:`SpliceConfig`, :class:`Pin`.
@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.16.0"
+__version__ = "0.17.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)
@@ -60,7 +60,7 @@ _LAZY = {
     "align_pair": ".pipeline", "phase_smoothing": ".pipeline",
     "time_map": ".pipeline", "transfer_side": ".pipeline", "build_report": ".pipeline",
     "cross_check": ".pipeline", "estimate_risk": ".pipeline", "mark_coverage_edges": ".pipeline",
-    "trend_time_maps": ".pipeline", "uncover_unsure_edges": ".pipeline",
+    "trend_time_maps": ".pipeline", "refine_time_maps": ".pipeline", "uncover_unsure_edges": ".pipeline",
     "SpliceOptions": ".options",
     "Report": ".report", "SideReport": ".report",
     "read_config": ".io.config", "parse_config": ".io.config", "SpliceConfig": ".io.config",

@@ -103,6 +103,19 @@ TIMEMAP_SIGMA_S = 0.2
 #: and 0.015 (benchmarks/HISTORY.md, 0.12.0): 0.004 helps the imitation most and costs *all*;
 #: 0.0075-0.015 help or keep every scenario measured.  0 switches the stage off.
 TEMPO_VAR_PER_S = 0.01
+#: The wrist's refinement of the time map (:mod:`splicer.align.wrist`): offsets searched each
+#: side of the map, seconds (0 switches the stage off).  Chosen on tuning seeds 0-3 with the
+#: three below and :data:`splicer.align.wrist.LAMBDA` (benchmarks/HISTORY.md, 0.17.0: 0.27 and
+#: 0.4 s alike; the offset's smoothing 0.33 s better than 0.2).
+WRIST_RADIUS_S = 0.25
+#: The markers' smoothing before the hand's direction is differentiated, seconds: the phase
+#: metric's own (:data:`SMOOTH_S`, without noise matching's widening).  0.05 and 0.083 measured
+#: worse on the tuning seeds, and 0.1-0.2 far worse with optical markers (benchmarks/HISTORY.md, 0.17.0).
+WRIST_SMOOTH_S = SMOOTH_S
+#: The offset path's smoothing before it moves the map, seconds.
+WRIST_OFFSET_SMOOTH_S = 1.0 / 3.0
+#: Window of the map's local slope (the hands' tempo), seconds.
+WRIST_SLOPE_S = 0.5
 #: Median merge: frames blended each side of a jump.
 BLEND_WINDOW_FRAMES = 4
 #: Rate of the coarse guide pass of long takes, frames per second.
@@ -146,9 +159,12 @@ UNMATCHED_EDGE_S = 2.0
 UNMATCHED_RATIO = 0.85
 UNMATCHED_WINDOW_S = 2.0
 #: The estimated error of a frame (:mod:`splicer.stages.risk`) is this quantile of its error
-#: under the risk model: the error it exceeds with probability 1 - RISK_QUANTILE.  0.95, the
-#: percentile of the scenario targets (README *Accuracy*); chosen before measuring, not tuned.
-RISK_QUANTILE = 0.95
+#: under the risk model: the error it exceeds with probability 1 - RISK_QUANTILE.  A frame is
+#: flagged when its risk of being 0.1 s off exceeds 1 - RISK_QUANTILE, so that share should be
+#: about the protocol's share of such frames: 0.95 until 0.16.0 (5-7 % of the tuning frames more
+#: than 0.1 s off), 0.98 since 0.17.0's wrist refinement (2.1 %), checked by cross-validation on
+#: the tuning seeds before the held-out seeds were scored (benchmarks/HISTORY.md, 0.17.0).
+RISK_QUANTILE = 0.98
 
 #: The passes (``passes``): ``"auto"`` runs both (pass 2: the palm metric D2, narrower band), but
 #: pass 1 alone for a side aligned on optical markers (``--hands-markers``/``--body-markers``,

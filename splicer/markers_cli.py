@@ -149,7 +149,7 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     from .rig.marker_arm import arm_from_trajectories
     from .options import resolve_options
     from .pipeline import (Log, SideMarkers, SideResult, _align_up, _coverage_report, align_side, mark_coverage_edges,
-                           time_map)
+                           refine_time_maps, time_map)
     from .report import Report, SideReport
     from .io.trajectories import Trajectories, read_trajectories
 
@@ -175,16 +175,20 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
                 log.note(msg)
         hmk = resample_markers(_align_up(harm.markers, barm.markers.up), bt.fps)
         real = {"body": barm.report(bt), "hands": harm.report(ht)}
-        sm = SideMarkers(s, barm.markers, hmk, spaces, tuple(pins_from_config(cfg, s, spaces)), real)
+        sm = SideMarkers(s, barm.markers, hmk, spaces, tuple(pins_from_config(cfg, s, spaces)), real,
+                         placed=("optical", "optical"))
         log.tick("markers")
         alignment = align_side(sm, opts, log)
         tm = time_map(alignment, sm, opts)
+        # the wrist's refinement, as splice runs it (stages.transfer.refine_time_maps)
+        refined = refine_time_maps({s: SideResult(s, tm, sm, alignment)}, opts)[s]
+        tm = refined.hands_frame
         maps[s] = tm
         columns[s] = sorted({c for cols in list(harm.roles.roles.values()) + list(harm.roles.segments.values())
                              for c in cols})
         info = lambda p: None if p is None else {"band_frames": round(float(p.band.width), 3), "cost": float(p.cost)}
         extra = {"hands_file_frame": [round(float(v) + ht.first_frame, 4) if np.isfinite(v) else None for v in tm],
-                 "markers": real}
+                 "markers": real, **refined.extra}
         # covered / uncovered ranges, confidence and low-confidence ranges as splice reports them
         side = mark_coverage_edges({s: SideResult(s, tm, sm, alignment)})[s]  # as splice: the edges of coverage
         extra.update(_coverage_report(side, bt.n_frames, log))

@@ -1,5 +1,5 @@
 """The whole job as stages: load -> rig -> markers -> align -> time map -> cross-check -> time map
-weighed by the expected path's spread -> risk -> coverage edges -> transfer -> report.
+weighed by the expected path's spread -> the wrist's refinement -> risk -> coverage edges -> transfer -> report.
 
 :func:`splice` composes the stages of :mod:`splicer.stages` (one module each); each stage is
 a function with a typed, frozen result, usable on its own (notebooks, other tools), and
@@ -22,10 +22,10 @@ from .stages.log import Log
 from .stages.markers import SideMarkers, _align_up, side_markers  # noqa: F401
 from .stages.report import LOW_CONFIDENCE_S, SideResult, SpliceResult, _coverage_report, build_report  # noqa: F401
 from .stages.rig import Conditioned, Rig, condition_hands, find_rig
-from .stages.transfer import Transfer, check_fingers, time_map, transfer_side, trend_time_maps
+from .stages.transfer import Transfer, check_fingers, refine_time_maps, time_map, transfer_side, trend_time_maps
 
 __all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
-           "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "trend_time_maps", "transfer_side",
+           "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "trend_time_maps", "refine_time_maps", "transfer_side",
            "check_fingers", "cross_check", "hands_disagreement", "estimate_risk", "unsure_edges", "uncover_unsure_edges", "coverage_edges", "mark_coverage_edges", "build_report",
            "splice"]
 
@@ -78,6 +78,8 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     log.tick("cross-check")
     sides = trend_time_maps(sides, opts)  # each map weighed by the expected path's spread, the tempo drifting smoothly
     log.tick("trend")
+    sides = refine_time_maps(sides, opts, log)  # the hand's motion relative to the forearm: the last frame or two
+    log.tick("wrist")
     sides = estimate_risk(sides)  # every signal weighed together: the error's 95th percentile per frame
     sides = uncover_unsure_edges(sides, opts, log)  # unsure stretches next to uncovered frames: other material
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames
@@ -86,7 +88,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
         transfer = transfer_side(out, inputs, rig, s, r.alignment, r.hands_frame, opts, log, pins=r.pins)
         sanity = check_fingers(transfer, s, inputs, rig, r.hands_frame, checked.report["handedness"], log)
         out = transfer.motion
-        sides[s] = replace(r, joints=transfer.joints, extra={**transfer.extra, **sanity})
+        sides[s] = replace(r, joints=transfer.joints, extra={**r.extra, **transfer.extra, **sanity})
     report = build_report(inputs, opts, sides, log,
                           extra={**checked.report, "up": {k: u.as_dict() for k, u in rig.up.items()}})
     log.progress("done", 1.0)

@@ -15,6 +15,7 @@ from splicer import splice
 from splicer.align.risk import (LOG_FLOOR_S, RiskModel, distance_to_uncovered, error_quantile, feature_names,
                                 risk_features, risk_score, risk_signals, running_max, running_mean)
 from splicer.align.risk_model import MODEL
+from splicer.defaults import RISK_QUANTILE
 from splicer.stages.risk import estimate_risk, side_risk_signals
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -164,14 +165,14 @@ def sample():
 
 
 def test_stage_on_the_sample(sample):
-    """Both sides get the model's 95th percentile; the rule it replaces is kept as evidence."""
+    """Both sides get the model's 98th percentile (RISK_QUANTILE); the rule it replaces is kept as evidence."""
     left, right = sample.sides["left"], sample.sides["right"]
     for r, o in ((left, right), (right, left)):
         conf = r.alignment.confidence
         assert conf.evidence_error_s is not None
         sig = side_risk_signals(r, o)
         unc = ~np.isfinite(r.hands_frame)
-        est = error_quantile(MODEL, risk_score(MODEL, sig, unc, r.markers.spaces.body_fps))
+        est = error_quantile(MODEL, risk_score(MODEL, sig, unc, r.markers.spaces.body_fps), q=RISK_QUANTILE)
         cov = np.isfinite(conf.est_error_s)
         np.testing.assert_allclose(conf.est_error_s[cov], est[cov])  # nothing uncovered near: no edge floor
         np.testing.assert_allclose(conf.confidence[cov], 1 / (1 + (est[cov] / 0.1) ** 2))

@@ -15,9 +15,9 @@ together with an ordinal logistic model fitted on the ground-truth protocol
 for a ladder of errors ``t_k`` (seconds) with one score ``s`` per frame.  The estimated error
 is the error that the frame exceeds with probability ``1 - q``: ``theta(t) = s - logit(1 - q)``
 solved for ``t``, ``log t`` linear in ``theta`` between the ladder's rungs (and beyond them,
-with the end rungs' slopes).  With ``q = 0.95`` (:data:`splicer.defaults.RISK_QUANTILE`) it is
-the estimated 95th percentile of the frame's error, and a frame is low confidence when that
-exceeds 0.1 s.
+with the end rungs' slopes).  With ``q = 0.98`` (:data:`splicer.defaults.RISK_QUANTILE`; 0.95
+until 0.16.0) it is the estimated 98th percentile of the frame's error, and a frame is low
+confidence when that exceeds 0.1 s.
 
 The features (:func:`risk_features`) are the logarithms of the signals in seconds (``log(x +
 1/120 s)``), the body arms' speeds relative to their root-mean-square, each also as its maximum

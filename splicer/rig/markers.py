@@ -24,7 +24,7 @@ from .handgeom import HAND_PER_FOREARM, finger_anchors
 from .roles import ArmRoles
 from ..model.rotations import atan2_stable, quat_rotate
 
-__all__ = ["Markers", "arm_markers", "root_heading"]
+__all__ = ["Markers", "arm_markers", "marker_placement", "root_heading"]
 
 FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
 
@@ -89,6 +89,39 @@ def root_heading(motion: Motion, up: int) -> np.ndarray:
     return np.unwrap(atan2_stable(v[:, b], v[:, a]))
 
 
+def _sources(keys) -> tuple[str, str | None, str | None]:
+    """Which finger bases ``arm_markers`` takes for ``p4``, the radial and the ulnar side, given
+    the bases found (``keys``; ``"hand"`` for a body without finger joints): ``"mean"`` for ``p4``
+    is the centroid of the bases, ``None`` a side across the palm (coarse rigs)."""
+    p4 = "middle" if "middle" in keys else ("hand" if "hand" in keys else "mean")
+    radial = "index" if "index" in keys else ("thumb" if "thumb" in keys else None)
+    ulnar = "pinky" if "pinky" in keys else ("ring" if "ring" in keys else None)
+    if radial is not None and ulnar is None:
+        ulnar = p4  # index or thumb against the hand's middle: still the radial side
+    return p4, radial, ulnar
+
+
+def marker_placement(sk, arm: ArmRoles) -> str:
+    """How :func:`arm_markers` places one side's markers on this skeleton, in words.
+
+    Two takes whose placements are equal have markers made the same way from the same kind of
+    joints (each finger base a joint, or an End Site's offset: ``*``), so the hand's direction in
+    the forearm's frame compares between them (:mod:`splicer.align.wrist`).
+
+    Examples
+    --------
+    ``"p1-p2 index-pinky, p3 elbow, p4 middle"``; a body without finger joints:
+    ``"p1-p2 across-across, p3 elbow, p4 hand"``.
+    """
+    anchors = finger_anchors(sk, arm, rest_positions(sk))
+    keys = {f: ("*" if np.any(off) else "") for f, (_, off) in anchors.items()} or {"hand": ""}
+    p4, radial, ulnar = _sources(keys)
+    if radial is None or ulnar is None:
+        radial = ulnar = "across"
+    name = {k: k + keys.get(k, "") for k in (p4, radial, ulnar)}
+    return f"p1-p2 {name[radial]}-{name[ulnar]}, p3 {'elbow' if arm.elbow is not None else 'back'}, p4 {name[p4]}"
+
+
 def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
     """Virtual markers of one side of ``motion``.
 
@@ -137,16 +170,11 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
             tip = HAND_PER_FOREARM * (rest[arm.wrist] - rest[arm.elbow])
         bpos["hand"] = w + quat_rotate(grot[:, 0], tip)
 
-    # hand marker
-    if "middle" in bpos or "hand" in bpos:
-        p4 = bpos.get("middle", bpos.get("hand"))
-    else:
-        p4 = np.mean(np.stack(list(bpos.values()), axis=1), axis=1)
-    # radial-ulnar axis
-    radial = bpos.get("index", bpos.get("thumb"))
-    ulnar = bpos.get("pinky", bpos.get("ring"))
-    if radial is not None and ulnar is None and radial is not p4:
-        ulnar = p4  # index or thumb against the hand's middle: still the radial side
+    # hand marker and radial-ulnar axis (marker_placement says the same in words)
+    p4_key, radial_key, ulnar_key = _sources(bpos)
+    p4 = np.mean(np.stack(list(bpos.values()), axis=1), axis=1) if p4_key == "mean" else bpos[p4_key]
+    radial = bpos.get(radial_key) if radial_key is not None else None
+    ulnar = (p4 if ulnar_key == p4_key else bpos[ulnar_key]) if ulnar_key is not None else None
     if radial is None or ulnar is None:
         # coarse rig: across the palm, perpendicular to the hand's long axis and the up axis of the wrist
         long_axis = p4 - w

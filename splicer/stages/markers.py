@@ -32,6 +32,9 @@ class SideMarkers:
     hand_only : bool
         The hands file is hand-only on this side (no shoulder: the body's markers are measured
         from its root, :func:`splicer.rig.handonly.hand_only_view`).
+    placed : tuple of str
+        How the body's and the hands' markers were placed (:func:`splicer.rig.markers.marker_placement`;
+        ``"optical"`` for real markers): the wrist's refinement runs only where they are equal.
     """
 
     side: str
@@ -41,6 +44,7 @@ class SideMarkers:
     pins: tuple
     real: dict = field(default_factory=dict)  # issue 14: "body"/"hands" -> optical marker report
     hand_only: bool = False
+    placed: tuple = ("", "")
 
 
 def _align_up(markers, up_to: int):
@@ -59,7 +63,7 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     """Virtual markers of ``side`` in both takes, the hands brought to the body's rate and up axis."""
     from ..align.passes import resample_markers
     from ..rig.handonly import coincident_forearm, hand_only_view, is_hand_only
-    from ..rig.markers import arm_markers
+    from ..rig.markers import arm_markers, marker_placement
 
     log = log or Log()
     log.progress(f"{side}: markers", 0.0)
@@ -68,10 +72,14 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     log.progress(f"{side}: markers", bm.n_frames / (bm.n_frames + hm.n_frames))  # the bar by frames: body, then hands
     harm = rig.hands.sides[side]
     hand_only = is_hand_only(harm)
+    body_placed = marker_placement(bm.skeleton, rig.body.sides[side])
     if hand_only and not is_hand_only(rig.body.sides[side]):
         # a hand-only file has no shoulder nor elbow: the body's markers are made the same way
         # (from its root, with the same virtual forearm)
-        bmk = hand_only_view(bm, rig.body.sides[side], bmk, forearm_joint=coincident_forearm(hm.skeleton, harm) is not None)
+        forearm = coincident_forearm(hm.skeleton, harm) is not None
+        bmk = hand_only_view(bm, rig.body.sides[side], bmk, forearm_joint=forearm)
+        if forearm:  # turned with a forearm joint as the hands' is (Leap): p3 placed alike; a wrist-rooted file's turns with the hand
+            body_placed = body_placed.replace(", p3 elbow,", ", p3 back,")
     hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
     log.progress(f"{side}: markers", 1.0)
     # --- issue 14: real optical markers replace the virtual ones of the take that has them ---
@@ -96,7 +104,9 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
             hmk = _align_up(mk, rig.body.up)
     # --- end issue 14 ---
     pins = pins_from_config(inputs.config, side, inputs.spaces)
-    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real, hand_only)
+    placed = ("optical" if "body" in real else body_placed,
+              "optical" if "hands" in real else marker_placement(hm.skeleton, harm))
+    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real, hand_only, placed)
     if side == rig.sides[-1]:  # the arm chains' rotations (the sides share the root and spine): not needed again
         bm.forget_rotations()
         hm.forget_rotations()

@@ -1,10 +1,10 @@
-"""Stage 6d, the error's 95th percentile: every signal of the alignment weighed together.
+"""Stage 6d, the error's 98th percentile: every signal of the alignment weighed together.
 
 After the cross-check each side's estimated error is the larger of the expected path's spread
 and the arms' disagreement.  Measured on the ground-truth protocol, that rule flags frames
 whose arm wanders where its motion says little (good frames) and misses stretches where
 every signal is a little raised but none is large (README *Accuracy*).  This stage replaces
-it, where both arms were aligned with one pass 1 (the default for two sides), with the 95th
+it, where both arms were aligned with one pass 1 (the default for two sides), with the 98th
 percentile of the frame's error estimated by an ordinal logistic model of those signals, the
 time-map smoother's standard deviation and shift (:func:`splicer.stages.transfer.trend_time_maps`
 runs first) and the body's arm speeds (:mod:`splicer.align.risk`;

@@ -1,0 +1,336 @@
+"""The last refinement of a time map: the hand's motion relative to the forearm (0.17.0).
+
+Pass 1 aligns the arm's phases (D1) and pass 2 the palm's angle to the forearm (D2); the time
+map that comes out of them, smoothed and weighed by its uncertainty, still wanders by a frame or
+two for a second at a time where the arm's signs say little (a second performance, a noisy
+solve).  The hand's direction *in the forearm's own frame* is a signal of its own: it does not
+move when the shoulder or elbow of the other performance swing a little wider or jitter, and
+its rate of change, taken as a function of time, is the same in both takes once the hands'
+tempo is allowed for.  This module finds, within :data:`splicer.defaults.WRIST_RADIUS_S` of the
+map, the smooth offset that best matches that rate of change, and moves the map by it.
+
+For each body frame ``t`` and each offset ``d`` (a grid of :data:`STEP_FRAMES` common frames
+within the radius)::
+
+    E[t, d] = || v_body(t) - s(t) * v_hands(c(t) + d) ||^2 / median(E)
+
+where ``v`` is the frame-to-frame change of the hand's unit direction in the forearm frame
+(smoothed over :data:`splicer.defaults.WRIST_SMOOTH_S` first), ``c`` the map in common frames and
+``s`` its local slope (the hands' tempo: a hand moving twice as fast in the hands take changes
+twice as much per hands frame).  Offset paths cost ``sum E[t, d_t] + lam * sum (d_t - d_{t-1})^2``
+(starting from offset 0, steps of at most :data:`MAX_STEP` grid points per frame) and are weighed
+``exp(-cost)``; the expected offset per frame (forward-backward, :func:`expected_offsets`: a
+smooth function of the input, where the best path alone jumped between near-equal paths when
+the input changed in its last digits) is smoothed over
+:data:`splicer.defaults.WRIST_OFFSET_SMOOTH_S` and added.
+
+Measured on the ground-truth protocol (benchmarks/HISTORY.md, 0.17.0).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "hand_in_forearm", "turn_onto", "offset_costs", "expected_offsets", "refine_map"]
+
+#: Offsets are searched on a grid of this many common (body) frames.
+STEP_FRAMES = 0.25
+#: The offset moves at most this many grid points from one body frame to the next (a tempo
+#: departure of up to ``MAX_STEP * STEP_FRAMES`` = 0.5 hands frames per body frame).
+MAX_STEP = 2
+#: Cost of a change of offset, per squared common frame, against the normalised match cost.
+LAMBDA = 10.0
+#: Above this many cells the costs' median is taken over evenly spaced rows (memory).
+_MEDIAN_CELLS = 1 << 21
+
+
+def hand_in_forearm(points: np.ndarray) -> np.ndarray:
+    """The hand's unit direction in the forearm's frame, per frame.
+
+    The frame: ``x`` from the wrist's centre ``c = (p1 + p2) / 2`` to the forearm marker ``p3``;
+    ``y`` the wrist's width ``p1 - p2`` made orthogonal to ``x``; ``z = x × y``.  The hand's
+    direction is ``p4 - c``, normalised.
+
+    Parameters
+    ----------
+    points : np.ndarray [shape=(T, 4, 3)]
+        Markers ``p1, p2, p3, p4`` (any world frame and unit).
+
+    Returns
+    -------
+    np.ndarray [shape=(T, 3), dtype=float64]
+        Components of the hand's direction along ``x, y, z``: each in [-1, 1], unitless; zeros
+        where a direction is undefined (coincident markers).
+    """
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 3 or p.shape[1:] != (4, 3):
+        raise ValueError(f"points must have shape (T, 4, 3), got {p.shape}")
+
+    def unit(v):
+        n = np.linalg.norm(v, axis=-1, keepdims=True)
+        return np.where(n > 1e-12, v / np.maximum(n, 1e-12), 0.0)
+
+    c = 0.5 * (p[:, 0] + p[:, 1])
+    x = unit(p[:, 2] - c)
+    y = p[:, 0] - p[:, 1]
+    y = unit(y - (y * x).sum(-1, keepdims=True) * x)
+    z = np.cross(x, y)
+    h = unit(p[:, 3] - c)
+    return np.stack([(h * x).sum(-1), (h * y).sum(-1), (h * z).sum(-1)], axis=-1)
+
+
+#: The anatomical placement of :func:`splicer.rig.markers.marker_placement`: wrist markers across
+#: the index and pinky bases, the forearm's from the elbow, the hand's at the middle finger's base;
+#: the roles optical markers have (styloids, forearm, hand: :mod:`splicer.rig.marker_roles`).
+ANATOMICAL = "p1-p2 index-pinky, p3 elbow, p4 middle"
+
+
+def comparable_placements(body: str, hands: str) -> bool:
+    """Whether the hand's direction in the forearm's frame compares between two takes' markers.
+
+    Placed the same way (:func:`splicer.rig.markers.marker_placement`), or optical markers on one
+    take and the anatomical placement (:data:`ANATOMICAL`) on the other: a fixed difference of
+    where the markers sit is taken out by :func:`turn_onto`.  Measured: a body without finger
+    joints against a hands take with them (the markers across the palm made from the wrist's
+    axes) and a wrist-rooted hand file (its forearm turned with its hand) mislead the refinement
+    by 1.7-5 frames even so (tests/test_splice.py, tests/test_handonly.py); they keep their maps.
+    """
+    if not body or not hands:
+        return False
+    if body == hands:
+        return True
+    return {body, hands} == {"optical", ANATOMICAL}
+
+
+def turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The rotation ``R`` (3 x 3, proper) minimising ``sum ||R a_t - b_t||^2`` (Kabsch).
+
+    Two rigs may place the wrist and hand markers a little differently (other finger bases, skin
+    markers against joints): the hand's direction in the forearm's frame then differs by about a
+    fixed rotation, which this takes out before the rates of change are compared.
+    """
+    h = np.asarray(a, dtype=np.float64).T @ np.asarray(b, dtype=np.float64)
+    u, _, vt = np.linalg.svd(h)
+    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
+    return vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+
+
+def _interp_rows(a: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Rows of ``a`` (T, k) at fractional indices ``w`` (any shape), linear, clipped to the ends."""
+    m = len(a)
+    w = np.clip(w, 0.0, m - 1.0)
+    j = np.minimum(np.floor(w).astype(np.int64), max(m - 2, 0))
+    f = (w - j)[..., None]
+    return (1.0 - f) * a[j] + f * a[np.minimum(j + 1, m - 1)]
+
+
+@njit(cache=True)
+def _offset_costs(vb, vh, c, slope, offsets, out):
+    # out[t, s] = || vb[t] - slope[t] * vh(c[t] + offsets[s]) ||^2, vh linear between rows, clipped to its ends
+    n, S = out.shape
+    m, k = vh.shape
+    for t in range(n):
+        for s in range(S):
+            w = min(max(c[t] + offsets[s], 0.0), m - 1.0)
+            j = min(int(np.floor(w)), max(m - 2, 0))
+            f = w - j
+            j1 = min(j + 1, m - 1)
+            acc = 0.0
+            for q in range(k):
+                d = vb[t, q] - slope[t] * ((1.0 - f) * vh[j, q] + f * vh[j1, q])
+                acc += d * d
+            out[t, s] = acc
+
+
+def offset_costs(v_body: np.ndarray, v_hands: np.ndarray, c: np.ndarray, slope: np.ndarray,
+                 offsets: np.ndarray) -> np.ndarray:
+    """``E[t, d]``: the squared mismatch of the rates of change, divided by its median.
+
+    Parameters
+    ----------
+    v_body : np.ndarray [shape=(n, k)]
+        Body rates of change at the map's body frames.
+    v_hands : np.ndarray [shape=(m, k)]
+        Hands rates of change per common frame (the hands take at the body's rate).
+    c : np.ndarray [shape=(n,)]
+        The map, common frames (finite).
+    slope : np.ndarray [shape=(n,)]
+        The map's local slope, common frames per body frame (>= 0).
+    offsets : np.ndarray [shape=(S,)]
+        Offsets tried, common frames.
+
+    Returns
+    -------
+    np.ndarray [shape=(n, S), dtype=float64]
+        Unitless (1 is the median cell, or the mean where over half the cells are 0; over
+        :data:`_MEDIAN_CELLS` cells, of evenly spaced rows); all zeros when every cell is 0 (no
+        motion at all).
+    """
+    e = np.empty((len(c), len(offsets)))
+    _offset_costs(np.ascontiguousarray(v_body, dtype=np.float64), np.ascontiguousarray(v_hands, dtype=np.float64),
+                  np.ascontiguousarray(c, dtype=np.float64), np.ascontiguousarray(slope, dtype=np.float64),
+                  np.ascontiguousarray(offsets, dtype=np.float64), e)
+    if not e.size:
+        return e
+    sample = e[::max(1, e.size // _MEDIAN_CELLS)] if e.size > _MEDIAN_CELLS else e  # whole rows, evenly spread
+    scale = float(np.median(sample))
+    if not scale > 0.0:
+        scale = float(np.mean(sample))
+    if not scale > 0.0:
+        e[:] = 0.0
+        return e
+    e /= scale  # in place: an hour-long take's costs are 200 MB
+    return e
+
+
+@njit(cache=True)
+def _expected_offsets(e, offsets, lam, max_step, temp):
+    # forward-backward over offset paths weighed exp(-(sum e + lam * steps^2) / temp), the path
+    # starting from the middle column; the posterior mean of each row's offset.  Scaled in the
+    # linear domain (each row's weights divided by their sum; each row's emissions taken
+    # relative to its smallest cost, so one of them is exp(0)).  Memory: the forward table
+    # (n x S) and a few rows.
+    n, S = e.shape
+    zero = S // 2
+    kern = np.empty(2 * max_step + 1)
+    for k in range(2 * max_step + 1):
+        d = k - max_step
+        kern[k] = np.exp(-lam * d * d / temp)
+    fw = np.empty((n, S))
+    em = np.empty(S)
+    for t in range(n):
+        lo = e[t].min()
+        for s in range(S):
+            em[s] = np.exp(-(e[t, s] - lo) / temp)
+        z = 0.0
+        for s in range(S):
+            if t == 0:
+                v = np.exp(-lam * (s - zero) * (s - zero) / temp)
+            else:
+                v = 0.0
+                for k in range(2 * max_step + 1):
+                    p = s - (k - max_step)
+                    if 0 <= p < S:
+                        v += fw[t - 1, p] * kern[k]
+            fw[t, s] = v * em[s]
+            z += fw[t, s]
+        if z > 0.0:
+            for s in range(S):
+                fw[t, s] /= z
+        else:  # every weight underflowed: the emissions alone
+            z = em.sum()
+            for s in range(S):
+                fw[t, s] = em[s] / z
+    out = np.empty(n)
+    bw = np.ones(S)
+    nb = np.empty(S)
+    for t in range(n - 1, -1, -1):
+        if t < n - 1:
+            lo = e[t + 1].min()
+            for s in range(S):
+                em[s] = np.exp(-(e[t + 1, s] - lo) / temp) * bw[s]
+            z = 0.0
+            for s in range(S):
+                v = 0.0
+                for k in range(2 * max_step + 1):
+                    q = s + (k - max_step)
+                    if 0 <= q < S:
+                        v += kern[k] * em[q]
+                nb[s] = v
+                z += v
+            for s in range(S):
+                bw[s] = nb[s] / z if z > 0.0 else 1.0
+        z = 0.0
+        mean = 0.0
+        for s in range(S):
+            w = fw[t, s] * bw[s]
+            z += w
+            mean += w * offsets[s]
+        out[t] = mean / z if z > 0.0 else 0.0
+    return out
+
+
+def expected_offsets(e: np.ndarray, offsets: np.ndarray, *, step: float = STEP_FRAMES, lam: float = LAMBDA,
+                     max_step: int = MAX_STEP, temperature: float = 1.0) -> np.ndarray:
+    """Each row's expected offset over paths weighed ``exp(-cost / temperature)``.
+
+    ``cost = sum e[t, s_t] + lam * sum ((s_t - s_{t-1}) * step)^2`` with ``s_{-1}`` the middle
+    column (offset 0): the first row may lie anywhere, at that price; from then on each step
+    moves at most ``max_step`` columns.  The expected offset (the posterior's mean,
+    forward-backward) is a smooth function of ``e``, where the best path alone would jump
+    between near-equal paths when the input changes in its last digits.
+
+    Parameters
+    ----------
+    e : np.ndarray [shape=(n, S)]
+        Costs, finite.
+    offsets : np.ndarray [shape=(S,)]
+        Each column's offset (any unit), symmetric about the middle column.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,), dtype=float64]
+        In the unit of ``offsets``.
+    """
+    e = np.ascontiguousarray(e, dtype=np.float64)
+    offsets = np.ascontiguousarray(offsets, dtype=np.float64)
+    if e.ndim != 2 or e.shape[1] < 1 or offsets.shape != (e.shape[1],):
+        raise ValueError(f"e must be (n, S) with S >= 1 and offsets (S,), got {e.shape} and {offsets.shape}")
+    if not (np.isfinite(e).all() and np.isfinite(offsets).all()):
+        raise ValueError("e and offsets must be finite")
+    if not (lam >= 0 and step > 0 and temperature > 0 and int(max_step) == max_step and max_step >= 0):
+        raise ValueError(f"need lam >= 0, step > 0, temperature > 0 and a whole max_step >= 0, "
+                         f"got {lam}, {step}, {temperature}, {max_step}")
+    if len(e) == 0:
+        return np.zeros(0)
+    return _expected_offsets(e, offsets, float(lam) * step * step, int(max_step), float(temperature))
+
+
+def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
+    from ..filters import gaussian_filter1d  # scipy's, bit for bit, without importing scipy
+
+    return gaussian_filter1d(x, sigma, axis=0, mode="nearest") if sigma > 0 and len(x) > 1 else x.copy()
+
+
+def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float, radius_s: float,
+               smooth_s: float, offset_smooth_s: float, slope_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The map ``c`` (common frames, one per body frame) moved by the wrist's best smooth offset.
+
+    Parameters
+    ----------
+    body_points : np.ndarray [shape=(n, 4, 3)]
+        The body's markers over the map's frames.
+    hands_points : np.ndarray [shape=(m, 4, 3)]
+        The hands' markers at the body's rate (common frames).
+    c : np.ndarray [shape=(n,)]
+        The map, common frames, finite and non-decreasing.
+    fps : float
+        The common rate, frames per second.
+    radius_s, smooth_s, offset_smooth_s, slope_s : float
+        The offsets searched (each side), the markers' smoothing, the offset path's smoothing,
+        and the window of the map's slope, seconds.
+
+    Returns
+    -------
+    refined : np.ndarray [shape=(n,)]
+        Non-decreasing, within ``[0, m - 1]``.
+    offset : np.ndarray [shape=(n,)]
+        What was added, common frames (before the clip and the monotone pass).
+    """
+    c = np.asarray(c, dtype=np.float64)
+    n, m = len(c), len(hands_points)
+    if n < 2 or m < 2 or not radius_s > 0:
+        return c.copy(), np.zeros(n)
+    if not np.isfinite(c).all():
+        raise ValueError("the map must be finite over the frames refined")
+    xb = _smooth(hand_in_forearm(body_points), smooth_s * fps)
+    xh = _smooth(hand_in_forearm(hands_points), smooth_s * fps)
+    xh = xh @ turn_onto(_interp_rows(xh, c), xb).T  # markers placed a little differently on the two rigs
+    vb, vh = np.gradient(xb, axis=0), np.gradient(xh, axis=0)
+    slope = np.clip(_smooth(np.gradient(c), slope_s * fps), 0.0, None)  # the slope smoothed, not the map: true to the ends
+    radius = radius_s * fps
+    offsets = np.arange(-np.floor(radius / STEP_FRAMES), np.floor(radius / STEP_FRAMES) + 1) * STEP_FRAMES
+    e = offset_costs(vb, vh, c, slope, offsets)
+    d = _smooth(expected_offsets(e, offsets), offset_smooth_s * fps)
+    return np.maximum.accumulate(np.clip(c + d, 0.0, m - 1.0)), d

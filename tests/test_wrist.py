@@ -1,0 +1,239 @@
+"""The wrist's refinement of the time map (splicer.align.wrist, stage refine_time_maps)."""
+
+from __future__ import annotations
+
+import itertools
+import warnings
+
+import numpy as np
+import pytest
+
+from splicer.align.wrist import comparable_placements, expected_offsets, hand_in_forearm, offset_costs, refine_map, turn_onto
+
+
+def _slow_posterior(e, step, lam, max_step, temperature):
+    """Every path enumerated for tiny inputs, weighed exp(-cost / temperature): each row's posterior."""
+    n, S = e.shape
+    post = np.zeros((n, S))
+    for path in itertools.product(range(S), repeat=n):
+        full = (S // 2,) + path  # the path starts from the middle column (offset 0), its first move any size
+        if any(abs(full[t] - full[t - 1]) > max_step for t in range(2, n + 1)):
+            continue
+        c = sum(e[t, path[t]] for t in range(n)) + sum(lam * ((full[t] - full[t - 1]) * step) ** 2 for t in range(1, n + 1))
+        w = np.exp(-c / temperature)
+        for t in range(n):
+            post[t, path[t]] += w
+    return post / post.sum(axis=1, keepdims=True)
+
+
+def test_hand_in_forearm_worked_answer():
+    # wrist centre at the origin, forearm marker along +x, wrist width along +y (z = x × y = +z)
+    p = np.array([[[0.0, 1, 0], [0, -1, 0], [5, 0, 0], [-3, 0, 4]]])
+    np.testing.assert_allclose(hand_in_forearm(p), [[-0.6, 0.0, 0.8]])
+    # the same arm turned and moved as a whole: the same components
+    a = 0.7
+    rot = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+    np.testing.assert_allclose(hand_in_forearm(p @ rot.T * 3.0 + [1, 2, 3]), [[-0.6, 0.0, 0.8]], atol=1e-12)
+    # a wrist width not orthogonal to the forearm is made so
+    q = p.copy()
+    q[0, 0] = [2.0, 1.0, 0.0]
+    q[0, 1] = [-2.0, -1.0, 0.0]
+    assert np.all(np.isfinite(hand_in_forearm(q)))
+    # coincident markers: zeros, not NaN
+    assert np.array_equal(hand_in_forearm(np.zeros((2, 4, 3))), np.zeros((2, 3)))
+    with pytest.raises(ValueError, match=r"\(T, 4, 3\)"):
+        hand_in_forearm(np.zeros((3, 3, 3)))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_expected_offsets_against_enumeration(seed):
+    rng = np.random.default_rng(seed)
+    n, S = int(rng.integers(1, 6)), int(rng.choice([1, 3, 5]))
+    e = 3.0 * rng.random((n, S))
+    offsets = (np.arange(S) - S // 2) * 0.25
+    step, lam, max_step = 0.25, float(rng.choice([0.0, 3.0, 40.0])), int(rng.integers(0, 3))
+    temperature = float(rng.choice([0.5, 1.0, 2.0]))
+    got = expected_offsets(e, offsets, step=step, lam=lam, max_step=max_step, temperature=temperature)
+    np.testing.assert_allclose(got, _slow_posterior(e, step, lam, max_step, temperature) @ offsets, rtol=1e-9, atol=1e-12)
+
+
+def test_expected_offsets_worked_answers():
+    # one row, two... three columns, no penalty: the posterior is softmax(-e)
+    got = expected_offsets(np.array([[np.log(3.0), 0.0, 50.0]]), np.array([-1.0, 0.0, 1.0]), lam=0.0, max_step=1)
+    np.testing.assert_allclose(got, [-0.25], atol=1e-12)  # weights 1/4, 3/4, ~0
+    # nothing to go by (all costs equal): symmetric about the middle, the expected offset 0
+    offsets = (np.arange(9) - 4) * 0.25
+    np.testing.assert_allclose(expected_offsets(np.zeros((6, 9)), offsets), 0.0, atol=1e-12)
+    # a clear dip at the edge is reached when it is worth the steps, and the mean follows it
+    e = np.full((12, 9), 4.0)
+    e[:, 8] = 0.0
+    assert np.all(expected_offsets(e, offsets)[4:] > 0.9)
+    with pytest.raises(ValueError, match="finite"):
+        expected_offsets(np.array([[np.nan]]), np.zeros(1))
+    with pytest.raises(ValueError, match="temperature"):
+        expected_offsets(np.ones((2, 3)), np.zeros(3), temperature=0.0)
+    with pytest.raises(ValueError, match="offsets"):
+        expected_offsets(np.ones((2, 3)), np.zeros(2))
+
+
+def test_offset_costs_against_a_slow_reference():
+    rng = np.random.default_rng(5)
+    vb, vh = rng.normal(size=(50, 3)), rng.normal(size=(80, 3))
+    c, slope, offsets = np.linspace(-3, 85, 50), rng.random(50) + 0.5, np.arange(-4, 5) * 0.25  # past both ends too
+    want = np.empty((50, 9))
+    for t in range(50):
+        for s, o in enumerate(offsets):
+            w = min(max(c[t] + o, 0.0), 79.0)
+            h = np.array([np.interp(w, np.arange(80.0), vh[:, q]) for q in range(3)])
+            want[t, s] = np.sum((vb[t] - slope[t] * h) ** 2)
+    got = offset_costs(vb, vh, c, slope, offsets)
+    np.testing.assert_allclose(got * np.median(want), want, rtol=1e-12)  # returned divided by the median
+
+
+def _arm(frames: np.ndarray) -> np.ndarray:
+    """Markers of an arm whose hand swings in the forearm's frame: p1, p2, p3 fixed, p4 moving."""
+    a = 0.6 * np.sin(frames / 4.0) + 0.3 * np.sin(frames / 11.0)
+    b = 0.4 * np.cos(frames / 6.0)
+    p = np.zeros((len(frames), 4, 3))
+    p[:, 0] = [0.0, 1.0, 0.0]
+    p[:, 1] = [0.0, -1.0, 0.0]
+    p[:, 2] = [-10.0, 0.0, 0.0]
+    p[:, 3] = np.stack([np.cos(a) * np.cos(b), np.sin(b), np.sin(a) * np.cos(b)], axis=1) * 3.0
+    return p
+
+
+def test_refine_map_recovers_a_shift():
+    fps = 30.0
+    m = 400
+    hands = _arm(np.arange(m, dtype=float))
+    truth = 50.0 + 1.2 * np.arange(250)  # body frame i shows hands frame 50 + 1.2 i
+    body = _arm(truth)
+    wrong = truth + 3.0  # three frames late everywhere
+    refined, d = refine_map(body, hands, wrong, fps=fps, radius_s=0.25, smooth_s=0.05, offset_smooth_s=1 / 3, slope_s=0.5)
+    # the path starts from the map (a 3-frame move costs 90 at the first frame), so the expected
+    # offset reaches the truth over the first second and a half; measured 0.044 frames at most past it
+    inner = slice(50, -30)
+    assert np.max(np.abs(refined[inner] - truth[inner])) < 0.1
+    assert np.all(np.abs(refined - truth) < 3.0)  # never further than the map it started from
+    assert np.all(np.diff(refined) >= 0)
+    np.testing.assert_allclose(d[inner], -3.0, atol=0.1)
+    # radius 0, or too few frames: unchanged
+    same, d0 = refine_map(body, hands, wrong, fps=fps, radius_s=0.0, smooth_s=0.05, offset_smooth_s=0.3, slope_s=0.5)
+    assert np.array_equal(same, wrong) and not d0.any()
+    with pytest.raises(ValueError, match="finite"):
+        refine_map(body, hands, np.where(np.arange(250) == 5, np.nan, wrong), fps=fps, radius_s=0.25, smooth_s=0.05,
+                   offset_smooth_s=0.3, slope_s=0.5)
+
+
+def test_refine_map_leaves_a_right_map_alone():
+    fps = 30.0
+    hands = _arm(np.arange(300, dtype=float))
+    truth = 20.0 + np.arange(200) * 0.9
+    refined, _ = refine_map(_arm(truth), hands, truth, fps=fps, radius_s=0.25, smooth_s=0.05, offset_smooth_s=1 / 3,
+                            slope_s=0.5)
+    err = np.abs(refined - truth)
+    assert err[:-30].max() < 0.05 and err.max() < 0.35  # measured 0.033 and 0.28 at the last frame (the body's last frame is differenced one-sided)
+
+
+# ---------------------------------------------------------------- the stage, on the bundled sample
+
+from dataclasses import replace  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import splicer  # noqa: E402
+from splicer.options import SpliceOptions  # noqa: E402
+from test_trend import sample_stages  # noqa: E402,F401  (the sample's sides before the trend stage)
+
+MOTIONS = Path(__file__).resolve().parents[1] / "motions"
+
+
+@pytest.fixture(scope="module")
+def weighed(sample_stages):
+    """The sample's sides after the trend stage, with its four pins (tolerance 2 hands frames)."""
+    return splicer.trend_time_maps(sample_stages, SpliceOptions())
+
+
+def test_stage_switches(weighed):
+    for opts in (SpliceOptions(merge="median"), SpliceOptions(wrist_radius_s=0)):
+        out = splicer.refine_time_maps(weighed, opts)
+        assert all(out[s] is weighed[s] for s in weighed)
+    with pytest.raises(splicer.SplicerError, match="wrist_radius_s"):
+        splicer.splice(MOTIONS / "sample_body.bvh", MOTIONS / "sample_hands.bvh", wrist_radius_s=-1)
+
+
+def test_stage_holds_every_pin_moves_within_its_radius_and_is_better_on_the_sample(weighed):
+    truth = np.loadtxt(MOTIONS / "sample_truth.csv", delimiter=",", skiprows=1, usecols=1)
+    out = splicer.refine_time_maps(weighed, SpliceOptions())
+    for s, r in out.items():
+        tm, before = r.hands_frame, weighed[s].hands_frame
+        assert np.all(np.diff(tm) >= 0) and tm.min() >= 0 and tm.max() <= r.markers.spaces.n_hands - 1
+        for p in r.pins:
+            assert abs(tm[p.body] - p.hands) <= p.tolerance + 1e-9, (s, p)
+        radius_hands = 0.25 * r.markers.spaces.hands_fps
+        assert 0 < np.max(np.abs(tm - before)) <= radius_hands + 1e-9
+        assert r.extra["wrist_shift_frames"] == pytest.approx(np.mean(np.abs(tm - before)), abs=1e-3)
+        # the sample's ground truth (hands frame per body frame): closer after the stage
+        assert np.mean(np.abs(tm - truth)) < np.mean(np.abs(before - truth)), s
+    # without pins the stage still never leaves the hands take
+    free = {s: replace(r, markers=replace(r.markers, pins=())) for s, r in weighed.items()}
+    for s, r in splicer.refine_time_maps(free, SpliceOptions()).items():
+        assert np.all(np.diff(r.hands_frame) >= 0)
+
+
+def test_turn_onto_recovers_a_rotation():
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(50, 3))
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    rot = q * np.sign(np.linalg.det(q))  # proper
+    np.testing.assert_allclose(turn_onto(a, a @ rot.T), rot, atol=1e-12)
+    np.testing.assert_allclose(turn_onto(a, a), np.eye(3), atol=1e-12)
+    assert np.linalg.det(turn_onto(a, -a)) == pytest.approx(1.0)  # a reflection is never returned
+
+
+def test_comparable_placements():
+    full = "p1-p2 index-pinky, p3 elbow, p4 middle"
+    assert comparable_placements(full, full)
+    assert comparable_placements("optical", full) and comparable_placements(full, "optical")
+    assert comparable_placements("optical", "optical")
+    assert not comparable_placements("p1-p2 across-across, p3 elbow, p4 hand", full)  # a body without fingers
+    assert not comparable_placements("p1-p2 index-pinky, p3 back, p4 middle", "optical")
+    assert not comparable_placements("", "")
+
+
+def test_real_rigs_run_the_stage_only_where_markers_are_placed_alike(shared_motions):
+    """Real files: the CMU body's hand has no finger joints of its own kind (its markers come from a
+    thumb End Site and the hand's), so against the bundled sample's full hands the stage does not
+    run; the ZEGGS body against the same hands does; a Leap (forearm-rooted) hand against the
+    ZEGGS body runs it, a ManipNet (wrist-rooted) one does not."""
+    from splicer.rig.markers import marker_placement
+    from splicer.rig.roles import find_roles
+
+    cases = ((shared_motions / "cmu" / "01_01.bvh", MOTIONS / "sample_hands.bvh", False),
+             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", MOTIONS / "sample_hands.bvh", True),
+             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", shared_motions / "leap-hands" / "clenching.bvh", True),
+             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", shared_motions / "manipnet-hands" / "teapot3_rightHand.bvh", False))
+    for body, hands, runs in cases:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the Leap file's short Frames: line (reported, not the point here)
+            r = splicer.splice(body, hands, side="right")
+        placed = r.sides["right"].markers.placed
+        assert comparable_placements(*placed) is runs, (body.name, hands.name, placed)
+        assert ("wrist_shift_frames" in r.report.to_dict()["sides"]["right"]) is runs, (body.name, hands.name)
+    cmu = splicer.read_bvh(shared_motions / "cmu" / "01_01.bvh")
+    assert marker_placement(cmu.skeleton, find_roles(cmu.skeleton).sides["right"]) == "p1-p2 thumb*-hand, p3 elbow, p4 hand"
+
+
+def test_offset_costs_median_over_spread_rows_for_long_takes(monkeypatch):
+    import splicer.align.wrist as W
+
+    rng = np.random.default_rng(8)
+    vb, vh = rng.normal(size=(400, 3)), rng.normal(size=(500, 3))
+    c, slope, offsets = np.linspace(10, 480, 400), np.ones(400), np.arange(-2, 3) * 0.25
+    raw = offset_costs(vb, vh, c, slope, offsets) * 1.0
+    monkeypatch.setattr(W, "_MEDIAN_CELLS", 100)  # 2,000 cells: every 20th row
+    got = offset_costs(vb, vh, c, slope, offsets)
+    # the same costs up to one scale, now the median of rows 0, 20, 40, ... instead of all rows
+    ratio = got / raw
+    assert np.allclose(ratio, ratio.flat[0])
+    np.testing.assert_allclose(np.median(got[::20]), 1.0)
+    assert abs(np.median(got) - 1.0) > 1e-6  # not the median of every cell

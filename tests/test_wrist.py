@@ -237,3 +237,15 @@ def test_offset_costs_median_over_spread_rows_for_long_takes(monkeypatch):
     assert np.allclose(ratio, ratio.flat[0])
     np.testing.assert_allclose(np.median(got[::20]), 1.0)
     assert abs(np.median(got) - 1.0) > 1e-6  # not the median of every cell
+
+
+def test_stage_leaves_a_side_with_unreadable_markers(weighed):
+    """A marker that is not a number anywhere (a broken optical file past the gap filling): the
+    side keeps its map rather than failing the splice."""
+    s, r = next(iter(weighed.items()))
+    pts = np.array(r.markers.hands.points)
+    pts[5, 3, 0] = np.nan
+    bad_hands = type(r.markers.hands)(pts, r.markers.hands.shoulder, r.markers.hands.heading, r.markers.hands.up,
+                                      r.markers.hands.fps, r.markers.hands.side)
+    broken = {s: replace(r, markers=replace(r.markers, hands=bad_hands))}
+    assert splicer.refine_time_maps(broken, SpliceOptions())[s] is broken[s]

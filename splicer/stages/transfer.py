@@ -156,12 +156,14 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
         a, b = _covered_span(r.alignment)
         tm = np.array(r.hands_frame, dtype=np.float64)
         span = tm[a:b + 1]
-        if b - a < 2 or not np.isfinite(span).all() or not comparable_placements(*r.markers.placed):
+        body_pts, hands_pts = r.markers.body.points[a:b + 1], r.markers.hands.points
+        if (b - a < 2 or not np.isfinite(span).all() or not comparable_placements(*r.markers.placed)
+                or not (np.isfinite(body_pts).all() and np.isfinite(hands_pts).all())):
             out[s] = r
             continue
         if log is not None:
             log.progress(f"{s}: wrist", 0.0)
-        refined, _ = refine_map(r.markers.body.points[a:b + 1], r.markers.hands.points, sp.hands_to_common(span),
+        refined, _ = refine_map(body_pts, hands_pts, sp.hands_to_common(span),
                                 fps=sp.body_fps, radius_s=opts.wrist_radius_s, smooth_s=WRIST_SMOOTH_S,
                                 offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
         new = monotone_pinned(sp.common_to_hands(refined), last=sp.n_hands - 1, pins=_span_pins(r.markers.pins, a, b))

@@ -190,7 +190,7 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
         extra = {"hands_file_frame": [round(float(v) + ht.first_frame, 4) if np.isfinite(v) else None for v in tm],
                  "markers": real, **refined.extra}
         # covered / uncovered ranges, confidence and low-confidence ranges as splice reports them
-        side = mark_coverage_edges({s: SideResult(s, tm, sm, alignment)})[s]  # as splice: the edges of coverage
+        side = mark_coverage_edges({s: refined})[s]  # as splice: the edges of coverage
         extra.update(_coverage_report(side, bt.n_frames, log))
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in sm.pins)
         side_reports[s] = SideReport(s, tm, info(alignment.pass1), info(alignment.pass2), pins, {}, extra)

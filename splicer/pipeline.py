@@ -80,7 +80,7 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     log.tick("trend")
     sides = refine_time_maps(sides, opts, log)  # the hand's motion relative to the forearm: the last frame or two
     log.tick("wrist")
-    sides = estimate_risk(sides)  # every signal weighed together: the error's 95th percentile per frame
+    sides = estimate_risk(sides)  # every signal weighed together: the error's 98th percentile per frame
     sides = uncover_unsure_edges(sides, opts, log)  # unsure stretches next to uncovered frames: other material
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames
     log.tick("risk")

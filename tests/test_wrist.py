@@ -196,8 +196,14 @@ def test_comparable_placements():
     assert comparable_placements("optical", full) and comparable_placements(full, "optical")
     assert comparable_placements("optical", "optical")
     assert not comparable_placements("p1-p2 across-across, p3 elbow, p4 hand", full)  # a body without fingers
-    assert not comparable_placements("p1-p2 index-pinky, p3 back, p4 middle", "optical")
+    assert not comparable_placements("p1-p2 index-pinky, p3 forearm joint, p4 middle", "optical")
     assert not comparable_placements("", "")
+    # a Leap file's virtual forearm (turned with its forearm joint) against the body's real one
+    assert comparable_placements(full, "p1-p2 index-pinky, p3 forearm joint, p4 middle")
+    assert not comparable_placements("p1-p2 index-pinky, p3 forearm joint, p4 middle", full)  # not the other way
+    # a forearm turned with the hand holds no wrist motion, placed alike or not
+    wrist_rooted = "p1-p2 index-pinky, p3 hand, p4 middle"
+    assert not comparable_placements(wrist_rooted, wrist_rooted)
 
 
 def test_real_rigs_run_the_stage_only_where_markers_are_placed_alike(shared_motions):

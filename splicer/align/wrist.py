@@ -32,6 +32,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..transfer.sampling import sample_linear
+
 __all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "hand_in_forearm", "turn_onto", "offset_costs", "expected_offsets", "refine_map"]
 
 #: Offsets are searched on a grid of this many common (body) frames.
@@ -84,23 +86,28 @@ def hand_in_forearm(points: np.ndarray) -> np.ndarray:
 #: the index and pinky bases, the forearm's from the elbow, the hand's at the middle finger's base;
 #: the roles optical markers have (styloids, forearm, hand: :mod:`splicer.rig.marker_roles`).
 ANATOMICAL = "p1-p2 index-pinky, p3 elbow, p4 middle"
+_P3_ELBOW, _P3_FOREARM_JOINT, _P3_HAND = ", p3 elbow,", ", p3 forearm joint,", ", p3 hand,"
 
 
 def comparable_placements(body: str, hands: str) -> bool:
     """Whether the hand's direction in the forearm's frame compares between two takes' markers.
 
     Placed the same way (:func:`splicer.rig.markers.marker_placement`), or optical markers on one
-    take and the anatomical placement (:data:`ANATOMICAL`) on the other: a fixed difference of
-    where the markers sit is taken out by :func:`turn_onto`.  Measured: a body without finger
-    joints against a hands take with them (the markers across the palm made from the wrist's
-    axes) and a wrist-rooted hand file (its forearm turned with its hand) mislead the refinement
-    by 1.7-5 frames even so (tests/test_splice.py, tests/test_handonly.py); they keep their maps.
+    take and the anatomical placement (:data:`ANATOMICAL`) on the other, or a body's real
+    forearm (``p3 elbow``) against a hand file's virtual one turned with its forearm joint
+    (``p3 forearm joint``, Leap: it points along the real forearm,
+    :func:`splicer.rig.handonly.hand_only_view`), the rest alike: a fixed difference of where
+    the markers sit is taken out by :func:`turn_onto`.  Never where ``p3`` turns with the hand
+    (a wrist-rooted hand file and the body's view made like it): the direction then holds no
+    wrist motion.  Measured: a body without finger joints against a hands take with them (the
+    markers across the palm made from the wrist's axes) and a wrist-rooted hand file mislead the
+    refinement by 1.7-5 frames even so (tests/test_splice.py, tests/test_handonly.py); they keep
+    their maps.
     """
-    if not body or not hands:
+    if not body or not hands or _P3_HAND in body or _P3_HAND in hands:
         return False
-    if body == hands:
-        return True
-    return {body, hands} == {"optical", ANATOMICAL}
+    return (body == hands or body.replace(_P3_ELBOW, _P3_FOREARM_JOINT) == hands
+            or {body, hands} == {"optical", ANATOMICAL})
 
 
 def turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -114,15 +121,6 @@ def turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     u, _, vt = np.linalg.svd(h)
     d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
     return vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-
-
-def _interp_rows(a: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Rows of ``a`` (T, k) at fractional indices ``w`` (any shape), linear, clipped to the ends."""
-    m = len(a)
-    w = np.clip(w, 0.0, m - 1.0)
-    j = np.minimum(np.floor(w).astype(np.int64), max(m - 2, 0))
-    f = (w - j)[..., None]
-    return (1.0 - f) * a[j] + f * a[np.minimum(j + 1, m - 1)]
 
 
 @njit(cache=True)
@@ -326,7 +324,7 @@ def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray,
         raise ValueError("the map must be finite over the frames refined")
     xb = _smooth(hand_in_forearm(body_points), smooth_s * fps)
     xh = _smooth(hand_in_forearm(hands_points), smooth_s * fps)
-    xh = xh @ turn_onto(_interp_rows(xh, c), xb).T  # markers placed a little differently on the two rigs
+    xh = xh @ turn_onto(sample_linear(xh, c), xb).T  # markers placed a little differently on the two rigs
     vb, vh = np.gradient(xb, axis=0), np.gradient(xh, axis=0)
     slope = np.clip(_smooth(np.gradient(c), slope_s * fps), 0.0, None)  # the slope smoothed, not the map: true to the ends
     radius = radius_s * fps

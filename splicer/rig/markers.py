@@ -101,12 +101,16 @@ def _sources(keys) -> tuple[str, str | None, str | None]:
     return p4, radial, ulnar
 
 
-def marker_placement(sk, arm: ArmRoles) -> str:
+def marker_placement(sk, arm: ArmRoles, *, p3: str | None = None) -> str:
     """How :func:`arm_markers` places one side's markers on this skeleton, in words.
 
     Two takes whose placements are equal have markers made the same way from the same kind of
     joints (each finger base a joint, or an End Site's offset: ``*``), so the hand's direction in
-    the forearm's frame compares between them (:mod:`splicer.align.wrist`).
+    the forearm's frame compares between them (:mod:`splicer.align.wrist`).  ``p3`` says what
+    the forearm marker follows: ``elbow`` (the real forearm), ``forearm joint`` (a hand-only
+    file's virtual forearm turned with its forearm joint) or ``hand`` (turned with the wrist:
+    a wrist-rooted file); ``p3=`` overrides it for markers remade another way
+    (:func:`splicer.rig.handonly.hand_only_view`).
 
     Examples
     --------
@@ -119,7 +123,9 @@ def marker_placement(sk, arm: ArmRoles) -> str:
     if radial is None or ulnar is None:
         radial = ulnar = "across"
     name = {k: k + keys.get(k, "") for k in (p4, radial, ulnar)}
-    return f"p1-p2 {name[radial]}-{name[ulnar]}, p3 {'elbow' if arm.elbow is not None else 'back'}, p4 {name[p4]}"
+    if p3 is None:  # as arm_markers turns it
+        p3 = "elbow" if arm.elbow is not None else ("hand" if sk.parents[arm.wrist] < 0 else "forearm joint")
+    return f"p1-p2 {name[radial]}-{name[ulnar]}, p3 {p3}, p4 {name[p4]}"
 
 
 def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:

@@ -78,8 +78,8 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
         # (from its root, with the same virtual forearm)
         forearm = coincident_forearm(hm.skeleton, harm) is not None
         bmk = hand_only_view(bm, rig.body.sides[side], bmk, forearm_joint=forearm)
-        if forearm:  # turned with a forearm joint as the hands' is (Leap): p3 placed alike; a wrist-rooted file's turns with the hand
-            body_placed = body_placed.replace(", p3 elbow,", ", p3 back,")
+        if not forearm:  # the body's p3 now on a virtual forearm turned with its wrist (with one, it keeps its real p3)
+            body_placed = marker_placement(bm.skeleton, rig.body.sides[side], p3="hand")
     hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
     log.progress(f"{side}: markers", 1.0)
     # --- issue 14: real optical markers replace the virtual ones of the take that has them ---

@@ -150,6 +150,7 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
 
     if opts.merge != "timemap" or not opts.wrist_radius_s > 0:
         return dict(sides)
+    log = log or Log()
     out = {}
     for s, r in sides.items():
         sp = r.markers.spaces
@@ -161,8 +162,7 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
                 or not (np.isfinite(body_pts).all() and np.isfinite(hands_pts).all())):
             out[s] = r
             continue
-        if log is not None:
-            log.progress(f"{s}: wrist", 0.0)
+        log.progress(f"{s}: wrist", 0.0)
         refined, _ = refine_map(body_pts, hands_pts, sp.hands_to_common(span),
                                 fps=sp.body_fps, radius_s=opts.wrist_radius_s, smooth_s=WRIST_SMOOTH_S,
                                 offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
@@ -170,8 +170,7 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
         moved = float(np.mean(np.abs(new - span)))
         tm[a:b + 1] = new
         out[s] = replace(r, hands_frame=tm, extra={**r.extra, "wrist_shift_frames": round(moved, 3)})
-        if log is not None:
-            log.progress(f"{s}: wrist", 1.0)
+        log.progress(f"{s}: wrist", 1.0)
     return out
 
 

@@ -54,7 +54,7 @@ def _takes():
 def _one(job):
     """Splice one scenario; return (take, scenario, seed, features (k, d), errors (k,))."""
     import splicer.pipeline as P
-    from splicer.align.risk import risk_features
+    from splicer.align.risk import feature_names, risk_features
     from splicer.evaluation.scenario_scores import judged_error, report_flags
     from splicer.evaluation.scenarios import alignment_error_s, make_scenario, scenario
     from splicer.stages.risk import side_risk_signals
@@ -84,7 +84,8 @@ def _one(job):
         unc, _low = report_flags(res.report["sides"][s], n)
         e = judged_error(alignment_error_s(sep, np.asarray(sd.hands_frame, float)), sep.covered, unc)
         keep = np.isfinite(e) & ~unc
-        F = np.stack([f for _, f in risk_features(sig, unc_model, fps)], axis=1)
+        F = dict(risk_features(sig, unc_model, fps))
+        F = np.stack([F.get(k, np.full(n, np.nan)) for k in feature_names()], axis=1)  # NaN: the wrist's refinement did not run
         X.append(F[keep])
         E.append(e[keep])
     return take_name, sc, seed, np.concatenate(X), np.concatenate(E)
@@ -131,16 +132,19 @@ def fit(X: np.ndarray, err: np.ndarray, ladder=LADDER_S, l2: float = L2, familie
     return mu, sd, r.x[:d], r.x[d:]
 
 
-def write_model(path: Path, names, mu, sd, w, th, fitted_on: str) -> None:
+def write_models(path: Path, models: dict, doc: str) -> None:
+    """``models``: variable name -> (names, mu, sd, w, th, fitted_on)."""
     def arr(a):
         return "(" + ", ".join(repr(float(x)) for x in a) + ",)"
     text = f'''"""The risk model's coefficients (:mod:`splicer.align.risk`), written by ``benchmarks/fit_risk.py``.
 
-{fitted_on}
+{doc}
 """
 from .risk import RiskModel
-
-MODEL = RiskModel(
+'''
+    for var, (names, mu, sd, w, th, fitted_on) in models.items():
+        text += f'''
+{var} = RiskModel(
     features={tuple(names)!r},
     mean={arr(mu)},
     scale={arr(sd)},
@@ -151,6 +155,20 @@ MODEL = RiskModel(
 )
 '''
     path.write_text(text)
+
+
+def fit_model(X: np.ndarray, E: np.ndarray, names) -> tuple:
+    """Fit the ordinal model on features ``X`` (columns ``names``); print its summary."""
+    # monotone in the evidence: more spread, disagreement or departure everywhere never lowers the estimate
+    fams = [[j for j, n in enumerate(names) if n == base or n.startswith(base + "_")]
+            for base in names if base.startswith("log_") and "_m" not in base.removeprefix("log_")]
+    # and the levels in seconds, held >= 0: a signal far too large everywhere is risk, whatever the
+    # logarithms' contrasts say
+    mu, sd, w, th = fit(X, E, families=fams, nonneg=[n.endswith("_level") for n in names])
+    order = np.argsort(-np.abs(w))
+    print(f"{len(E)} frames, {100 * np.mean(E > 0.1):.1f} % more than 0.1 s off; offsets {np.round(th, 3).tolist()}")
+    print("largest weights: " + ", ".join(f"{names[i]} {w[i]:+.2f}" for i in order[:8]))
+    return mu, sd, w, th
 
 
 def main(argv=None) -> int:
@@ -164,10 +182,12 @@ def main(argv=None) -> int:
     from splicer.align.risk import feature_names
     from splicer.evaluation.scenario_types import SCENARIOS
 
-    names = feature_names()
+    names = feature_names()  # the wrist's signals included; NaN where its refinement did not run
     if a.data is not None and a.data.exists():
         z = np.load(a.data)
         X, E, takes = z["X"], z["E"], [str(x) for x in z["takes"]]
+        if X.shape[1] != len(names):
+            raise SystemExit(f"{a.data} was recorded with {X.shape[1]} features, the code has {len(names)}: record it again")
         if "seed" in z.files:  # recorded over more seeds than asked for: keep the asked ones
             keep = (z["seed"] >= a.seed0) & (z["seed"] < a.seed0 + a.seeds)
             X, E = X[keep], E[keep]
@@ -191,19 +211,19 @@ def main(argv=None) -> int:
             np.savez_compressed(a.data, X=X, E=E, takes=np.array(takes),
                                 take=np.array([r[0] for r in rows])[lab], scenario=np.array([r[1] for r in rows])[lab],
                                 seed=np.array([r[2] for r in rows])[lab])
-    # monotone in the evidence: more spread, disagreement or departure everywhere never lowers the estimate
-    fams = [[j for j, n in enumerate(names) if n == base or n.startswith(base + "_")]
-            for base in names if base.startswith("log_") and "_m" not in base.removeprefix("log_")]
-    # and the levels in seconds, held >= 0: a signal far too large everywhere is risk, whatever the
-    # logarithms' contrasts say
-    mu, sd, w, th = fit(X, E, families=fams, nonneg=[n.endswith("_level") for n in names])
-    order = np.argsort(-np.abs(w))
-    print(f"{len(E)} frames, {100 * np.mean(E > 0.1):.1f} % more than 0.1 s off; offsets {np.round(th, 3).tolist()}")
-    print("largest weights: " + ", ".join(f"{names[i]} {w[i]:+.2f}" for i in order[:8]))
-    fitted_on = (f"Fitted on {len(E)} covered body frames of the ground-truth protocol: takes {', '.join(takes)}, "
-                 f"every scenario, seeds {a.seed0}-{a.seed0 + a.seeds - 1}, both sides, default options; "
-                 f"{100 * np.mean(E > 0.1):.1f} % of them more than 0.1 s off.")
-    write_model(a.out, names, mu, sd, w, th, fitted_on)
+    wrist = np.isfinite(X).all(axis=1)  # frames of sides the wrist's refinement ran on
+    cols = [j for j, nm in enumerate(names) if nm in set(feature_names(wrist=False))]
+    what = (f"takes {', '.join(takes)}, every scenario, seeds {a.seed0}-{a.seed0 + a.seeds - 1}, both sides, "
+            "default options")
+    models = {}
+    for var, rows, use in (("MODEL", wrist, list(range(len(names)))), ("MODEL_NO_WRIST", np.ones(len(E), bool), cols)):
+        print(var)
+        fitted = fit_model(X[rows][:, use], E[rows], [names[j] for j in use])
+        models[var] = ([names[j] for j in use], *fitted,
+                       f"Fitted on {int(rows.sum())} covered body frames of the ground-truth protocol: {what}; "
+                       f"{100 * np.mean(E[rows] > 0.1):.1f} % of them more than 0.1 s off.")
+    write_models(a.out, models, "MODEL: a side the wrist's refinement ran on (its signals included); MODEL_NO_WRIST: "
+                 "any other side (the same fit without them).\n\n" + models["MODEL"][-1])
     print("wrote", a.out)
     return 0
 

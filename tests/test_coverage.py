@@ -240,22 +240,25 @@ def test_unmatched_end_of_hands_covering_part_of_the_body_keeps_the_body_fingers
     and holds other material before and after; the path matches body frames past the genuine
     span to that material.  The check against the hands played backwards finds it no better
     than unrelated there: those frames are reported uncovered (all truly so) and keep the body's
-    fingers; with the rule off they get the other material."""
+    fingers; with the rule off they get the other material.  The rule for unsure stretches next
+    to uncovered frames (``unsure_edge_s``) is off in both runs: since 0.18.0 it takes most of
+    these frames itself (928 -> 425 frames given material on the left, measured; 0.17.0: 889),
+    and both rules together leave 287, as before."""
     from splicer import splice
     from splicer.evaluation.scenarios import make_scenario, scenario
     from splicer.evaluation.synth import make_gesture_take
 
     take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
     sep = make_scenario(take, scenario("extra+short"), rng=np.random.default_rng(1))
-    on = splice(sep.body, sep.hands)
-    off = splice(sep.body, sep.hands, unmatched_edge_s=0.0)
+    on = splice(sep.body, sep.hands, unsure_edge_s=0.0)
+    off = splice(sep.body, sep.hands, unmatched_edge_s=0.0, unsure_edge_s=0.0)
     truly = ~np.asarray(sep.covered)
     for s in on.sides:
         h_on = np.isfinite(np.asarray(on.sides[s].hands_frame, dtype=np.float64))
         h_off = np.isfinite(np.asarray(off.sides[s].hands_frame, dtype=np.float64))
         taken = h_off & ~h_on
         assert not (h_on & ~h_off).any()
-        assert taken.sum() >= 300, taken.sum()  # measured 603 of the 890 truly uncovered frames off gave material
+        assert taken.sum() >= 300, taken.sum()  # measured 641 of the 928 truly uncovered frames off gave material
         assert truly[taken].all()
         assert any("played backwards" in w and "taken as uncovered" in w for w in on.report["warnings"])
         joints = [on.motion.skeleton.names.index(j) for j in on.sides[s].joints]

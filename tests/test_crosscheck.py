@@ -94,9 +94,11 @@ def test_cross_check_on_the_sample(sample):
         for a, b in rep["disagree"]:
             apart[a:b + 1] = True
         # the risk model weighs the parting with the other signals: far more of those frames than
-        # elsewhere are low confidence (0.17.0, whose wrist refinement leaves the sample no frame
-        # 0.1 s off: 49 % / 43 %, against 11 % / 11 % elsewhere; 0.16.0: 68 % / 65 % against 13 %)
-        assert low[apart].mean() > 0.35 and low[apart].mean() > 3 * low[~apart].mean(), r.side
+        # elsewhere are low confidence (0.18.0, whose model reads the wrist's refinement too:
+        # 56 % / 33 % against 21 % / 7 % elsewhere, left / right, the left's 21 % holding all of
+        # its frames 0.1 s off (test_the_sample_confidence_is_honest); 0.17.0: 49 % / 43 % against
+        # 11 % / 11 %; 0.16.0: 68 % / 65 % against 13 %)
+        assert low[apart].mean() > 0.3 and low[apart].mean() > 2.5 * low[~apart].mean(), r.side
     assert any("disagree" in w for w in sample.report.to_dict()["warnings"])
 
 
@@ -155,13 +157,14 @@ def test_the_sample_confidence_is_honest(sample):
     for s, r in sample.sides.items():
         err = np.abs(r.hands_frame - truth) / r.markers.spaces.hands_fps
         flagged = r.alignment.confidence.low()
-        # 0.17.0 (the wrist's refinement, the 98th percentile): 38 frames 0.10-0.12 s off on the
-        # left, 53 % of them flagged, the others at most 0.111 s off (estimated 0.06-0.075 s);
-        # none on the right.  0.13.0-0.16.0: 21 bad frames a side, all flagged.
+        # 0.18.0 (the risk model reads the wrist's refinement): the left's 38 frames 0.10-0.12 s
+        # off all flagged, for 20 % / 10 % of the good frames (left / right; none bad on the
+        # right).  0.17.0: 53 % of them flagged (the others at most 0.111 s off), for 16 % of the
+        # good ones.  0.13.0-0.16.0: 21 bad frames a side, all flagged.
         if (err > 0.1).any():
-            assert flagged[err > 0.1].mean() >= 0.45, s
+            assert flagged[err > 0.1].mean() >= 0.9, s
             assert flagged[err > 0.12].all(), s
-        assert flagged[err < 0.05].mean() <= 0.3, s  # measured 16 % on both sides
+        assert flagged[err < 0.05].mean() <= 0.3, s
         # measured 0.027 / 0.016 s mean, 0.105 / 0.073 s 95th percentile (0.16.0: 0.035 s, 0.15 / 0.09)
         assert err.mean() < 0.03 and np.percentile(err, 95) < 0.11, s
 

@@ -14,7 +14,7 @@ import pytest
 from splicer import splice
 from splicer.align.risk import (LOG_FLOOR_S, RiskModel, distance_to_uncovered, error_quantile, feature_names,
                                 risk_features, risk_score, risk_signals, running_max, running_mean)
-from splicer.align.risk_model import MODEL
+from splicer.align.risk_model import MODEL, MODEL_NO_WRIST
 from splicer.defaults import RISK_QUANTILE
 from splicer.stages.risk import estimate_risk, side_risk_signals
 
@@ -96,13 +96,14 @@ def test_risk_model_checks_itself():
         m.probability_above(np.zeros(1), 0.3)
 
 
-def _signals(n=40, spread=0.02):
+def _signals(n=40, spread=0.02, wrist=True):
     z = np.zeros(n)
     rel = np.zeros((n, 4, 3))
     rel[:, :, 0] = np.sin(np.linspace(0, 6, n))[:, None]
+    w = dict(wrist_sd_s=np.full(n, spread / 4), wrist_shift_s=np.full(n, np.nan)) if wrist else {}
     return risk_signals(spread_s=np.full(n, spread), disagreement_s=z, evidence_s=np.full(n, spread), own_s=z,
                         other_own_s=z, trend_sd_s=np.full(n, spread / 2), trend_shift_s=z, body_relative=rel,
-                        other_body_relative=rel * 2)
+                        other_body_relative=rel * 2, **w)
 
 
 def test_risk_signals_and_features():
@@ -121,6 +122,18 @@ def test_risk_signals_and_features():
     np.testing.assert_allclose(feats["edge"][:6], [0, 0, 0, 1 / 30, 2 / 30, 3 / 30])
     assert feats["edge"].max() == pytest.approx(37 / 30)
     np.testing.assert_array_equal(feats["edge_in"][:14], [1] * 13 + [0])  # within 1/3 s: 10 frames past the edge
+    np.testing.assert_allclose(feats["log_wrist_sd"], np.log(0.005 + LOG_FLOOR_S))
+    np.testing.assert_allclose(feats["wrist_shift_level"], 0.0)  # NaN (not measured) reads 0
+    # a side the wrist's refinement did not run on: the same features less the wrist's
+    plain = dict(risk_features(_signals(wrist=False), unc, 30.0))
+    assert tuple(plain) == feature_names(wrist=False) and len(plain) < len(feats)
+    assert not any("wrist" in k for k in plain)
+    for k, v in plain.items():
+        np.testing.assert_array_equal(v, feats[k])
+    with pytest.raises(ValueError, match="both wrist signals"):
+        risk_signals(spread_s=np.zeros(3), disagreement_s=np.zeros(3), evidence_s=np.zeros(3), own_s=np.zeros(3),
+                     other_own_s=np.zeros(3), trend_sd_s=np.zeros(3), trend_shift_s=np.zeros(3),
+                     body_relative=np.zeros((3, 4, 3)), other_body_relative=np.zeros((3, 4, 3)), wrist_sd_s=np.zeros(3))
     with pytest.raises(ValueError, match="shape"):
         risk_signals(spread_s=np.zeros(3), disagreement_s=np.zeros(4), evidence_s=np.zeros(3), own_s=np.zeros(3),
                      other_own_s=np.zeros(3), trend_sd_s=np.zeros(3), trend_shift_s=np.zeros(3),
@@ -137,25 +150,28 @@ def test_risk_score_worked_and_checks_features():
         risk_score(wrong, sig, np.zeros(40, bool), 30.0)
 
 
-def test_the_shipped_model_reads_the_codes_features():
-    assert MODEL is not None, "benchmarks/fit_risk.py writes splicer/align/risk_model.py"
-    assert MODEL.features == feature_names()
-    assert "seeds 0-3" in MODEL.fitted_on  # fitted on the tuning seeds, never the held-out 100-104
+@pytest.mark.parametrize("wrist", [True, False])
+def test_the_shipped_model_reads_the_codes_features(wrist):
+    model = MODEL if wrist else MODEL_NO_WRIST
+    assert model is not None, "benchmarks/fit_risk.py writes splicer/align/risk_model.py"
+    assert model.features == feature_names(wrist=wrist)
+    assert "seeds 0-3" in model.fitted_on  # fitted on the tuning seeds, never the held-out 100-104
     # monotone in the evidence (the fit's constraints): a signal in seconds raised by the same
     # factor everywhere moves its logarithm and every window of it by the same amount, and the
     # score by sum_j w_j / sd_j over them, held >= 0; its level's weight is >= 0
-    names = feature_names()
-    per_unit = MODEL.weights / MODEL.scale
-    for base in ("spread", "disagreement", "evidence", "own", "other_own"):
+    names = feature_names(wrist=wrist)
+    per_unit = model.weights / model.scale
+    bases = ("spread", "disagreement", "evidence", "own", "other_own") + (("wrist_sd", "wrist_shift") if wrist else ())
+    for base in bases:
         fam = [j for j, n in enumerate(names) if n == "log_" + base or n.startswith(f"log_{base}_")]
         assert len(fam) == 7 and per_unit[fam].sum() >= -1e-9, base
-        assert MODEL.weights[names.index(base + "_level")] >= 0.0
+        assert model.weights[names.index(base + "_level")] >= 0.0
     unc = np.zeros(40, bool)
-    for k in ("spread", "disagreement", "evidence", "own", "other_own"):
-        lo, hi = _signals(spread=0.02), _signals(spread=0.02)
+    for k in bases:
+        lo, hi = _signals(spread=0.02, wrist=wrist), _signals(spread=0.02, wrist=wrist)
         lo[k], hi[k] = np.full(40, 0.01), np.full(40, 0.4)
-        e_lo = error_quantile(MODEL, risk_score(MODEL, lo, unc, 30.0))
-        e_hi = error_quantile(MODEL, risk_score(MODEL, hi, unc, 30.0))
+        e_lo = error_quantile(model, risk_score(model, lo, unc, 30.0))
+        e_hi = error_quantile(model, risk_score(model, hi, unc, 30.0))
         assert np.all(e_hi >= e_lo * (1 - 1e-9)), k
 
 
@@ -170,7 +186,9 @@ def test_stage_on_the_sample(sample):
     for r, o in ((left, right), (right, left)):
         conf = r.alignment.confidence
         assert conf.evidence_error_s is not None
+        assert r.wrist is not None  # the wrist's refinement ran: the model that reads it
         sig = side_risk_signals(r, o)
+        assert "wrist_sd" in sig
         unc = ~np.isfinite(r.hands_frame)
         est = error_quantile(MODEL, risk_score(MODEL, sig, unc, r.markers.spaces.body_fps), q=RISK_QUANTILE)
         cov = np.isfinite(conf.est_error_s)
@@ -189,6 +207,24 @@ def test_stage_leaves_what_it_cannot_read(sample):
     out = estimate_risk({"left": left, "right": unsmoothed})
     assert out["right"] is unsmoothed
     np.testing.assert_array_equal(out["left"].alignment.confidence.est_error_s, left.alignment.confidence.est_error_s)
+
+
+def test_stage_without_the_wrists_evidence(sample):
+    """A side the wrist's refinement did not run on (placements that do not compare) is
+    estimated by the model fitted without the wrist's signals."""
+    left, right = sample.sides["left"], sample.sides["right"]
+    plain = replace(right, wrist=None)
+    out = estimate_risk({"left": left, "right": plain})
+    sig = side_risk_signals(plain, left)
+    assert "wrist_sd" not in sig
+    unc = ~np.isfinite(plain.hands_frame)
+    want = error_quantile(MODEL_NO_WRIST, risk_score(MODEL_NO_WRIST, sig, unc, plain.markers.spaces.body_fps),
+                          q=RISK_QUANTILE)
+    cov = np.isfinite(out["right"].alignment.confidence.est_error_s)
+    assert cov.sum() > 100
+    np.testing.assert_allclose(out["right"].alignment.confidence.est_error_s[cov], want[cov])
+    with pytest.raises(ValueError, match="do not match"):
+        risk_score(MODEL, sig, unc, plain.markers.spaces.body_fps)
 
 
 def _load_fit():
@@ -225,10 +261,12 @@ def test_fit_script_keeps_the_seeds_asked_for(tmp_path):
     mod = _load_fit()
     from splicer.align.risk import feature_names
 
-    d = len(feature_names())
+    names = feature_names()
+    d = len(names)
     rng = np.random.default_rng(1)
     seeds = np.repeat([0, 1, 2], [300, 500, 700])
     X = rng.normal(size=(len(seeds), d))
+    X[300:400, [j for j, n in enumerate(names) if "wrist" in n]] = np.nan  # 100 frames of sides without the wrist's refinement
     E = np.exp(rng.normal(-3.0, 1.0, size=len(seeds)) + 0.5 * X[:, 0])  # errors of every rung
     data = tmp_path / "frames.npz"
     np.savez_compressed(data, X=X, E=E, takes=np.array(["synthetic"]), take=np.full(len(seeds), "synthetic"),
@@ -236,8 +274,10 @@ def test_fit_script_keeps_the_seeds_asked_for(tmp_path):
     out = tmp_path / "model.py"
     assert mod.main(["--seeds", "1", "--seed0", "1", "--data", str(data), "--out", str(out)]) == 0
     text = out.read_text()
-    assert "Fitted on 500 covered body frames" in text and "seeds 1-1" in text
+    assert "seeds 1-1" in text
     spec = importlib.util.spec_from_file_location("splicer.align.fitted_model", out)  # its import is relative
     m = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(m)
-    assert m.MODEL.features == feature_names()
+    assert m.MODEL.features == feature_names() and m.MODEL_NO_WRIST.features == feature_names(wrist=False)
+    assert "Fitted on 400 covered body frames" in m.MODEL.fitted_on  # the wrist's model: the frames that have it
+    assert "Fitted on 500 covered body frames" in m.MODEL_NO_WRIST.fitted_on  # the other: every frame

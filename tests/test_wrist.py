@@ -8,7 +8,8 @@ import warnings
 import numpy as np
 import pytest
 
-from splicer.align.wrist import comparable_placements, expected_offsets, hand_in_forearm, offset_costs, refine_map, turn_onto
+from splicer.align.wrist import (comparable_placements, expected_offsets, hand_in_forearm, offset_costs, offset_posterior,
+                                 refine_map, turn_onto)
 
 
 def _slow_posterior(e, step, lam, max_step, temperature):
@@ -54,13 +55,22 @@ def test_expected_offsets_against_enumeration(seed):
     step, lam, max_step = 0.25, float(rng.choice([0.0, 3.0, 40.0])), int(rng.integers(0, 3))
     temperature = float(rng.choice([0.5, 1.0, 2.0]))
     got = expected_offsets(e, offsets, step=step, lam=lam, max_step=max_step, temperature=temperature)
-    np.testing.assert_allclose(got, _slow_posterior(e, step, lam, max_step, temperature) @ offsets, rtol=1e-9, atol=1e-12)
+    post = _slow_posterior(e, step, lam, max_step, temperature)
+    np.testing.assert_allclose(got, post @ offsets, rtol=1e-9, atol=1e-12)
+    mean, sd = offset_posterior(e, offsets, step=step, lam=lam, max_step=max_step, temperature=temperature)
+    np.testing.assert_array_equal(mean, got)
+    np.testing.assert_allclose(sd, np.sqrt(post @ offsets ** 2 - (post @ offsets) ** 2), rtol=1e-7, atol=1e-9)
 
 
 def test_expected_offsets_worked_answers():
     # one row, two... three columns, no penalty: the posterior is softmax(-e)
     got = expected_offsets(np.array([[np.log(3.0), 0.0, 50.0]]), np.array([-1.0, 0.0, 1.0]), lam=0.0, max_step=1)
     np.testing.assert_allclose(got, [-0.25], atol=1e-12)  # weights 1/4, 3/4, ~0
+    # its standard deviation: sqrt(1/4 * 1 + 3/4 * 0 - 1/16) = sqrt(3) / 4
+    _, sd = offset_posterior(np.array([[np.log(3.0), 0.0, 50.0]]), np.array([-1.0, 0.0, 1.0]), lam=0.0, max_step=1)
+    np.testing.assert_allclose(sd, [np.sqrt(3.0) / 4], atol=1e-12)
+    # one column: nothing to doubt
+    assert offset_posterior(np.ones((3, 1)), np.zeros(1))[1].tolist() == [0.0, 0.0, 0.0]
     # nothing to go by (all costs equal): symmetric about the middle, the expected offset 0
     offsets = (np.arange(9) - 4) * 0.25
     np.testing.assert_allclose(expected_offsets(np.zeros((6, 9)), offsets), 0.0, atol=1e-12)
@@ -109,7 +119,8 @@ def test_refine_map_recovers_a_shift():
     truth = 50.0 + 1.2 * np.arange(250)  # body frame i shows hands frame 50 + 1.2 i
     body = _arm(truth)
     wrong = truth + 3.0  # three frames late everywhere
-    refined, d = refine_map(body, hands, wrong, fps=fps, radius_s=0.25, smooth_s=0.05, offset_smooth_s=1 / 3, slope_s=0.5)
+    fit = refine_map(body, hands, wrong, fps=fps, radius_s=0.25, smooth_s=0.05, offset_smooth_s=1 / 3, slope_s=0.5)
+    refined, d = fit.refined, fit.offset
     # the path starts from the map (a 3-frame move costs 90 at the first frame), so the expected
     # offset reaches the truth over the first second and a half; measured 0.044 frames at most past it
     inner = slice(50, -30)
@@ -118,8 +129,8 @@ def test_refine_map_recovers_a_shift():
     assert np.all(np.diff(refined) >= 0)
     np.testing.assert_allclose(d[inner], -3.0, atol=0.1)
     # radius 0, or too few frames: unchanged
-    same, d0 = refine_map(body, hands, wrong, fps=fps, radius_s=0.0, smooth_s=0.05, offset_smooth_s=0.3, slope_s=0.5)
-    assert np.array_equal(same, wrong) and not d0.any()
+    same = refine_map(body, hands, wrong, fps=fps, radius_s=0.0, smooth_s=0.05, offset_smooth_s=0.3, slope_s=0.5)
+    assert np.array_equal(same.refined, wrong) and not same.offset.any() and not same.sd.any()
     with pytest.raises(ValueError, match="finite"):
         refine_map(body, hands, np.where(np.arange(250) == 5, np.nan, wrong), fps=fps, radius_s=0.25, smooth_s=0.05,
                    offset_smooth_s=0.3, slope_s=0.5)
@@ -129,8 +140,8 @@ def test_refine_map_leaves_a_right_map_alone():
     fps = 30.0
     hands = _arm(np.arange(300, dtype=float))
     truth = 20.0 + np.arange(200) * 0.9
-    refined, _ = refine_map(_arm(truth), hands, truth, fps=fps, radius_s=0.25, smooth_s=0.05, offset_smooth_s=1 / 3,
-                            slope_s=0.5)
+    refined = refine_map(_arm(truth), hands, truth, fps=fps, radius_s=0.25, smooth_s=0.05, offset_smooth_s=1 / 3,
+                         slope_s=0.5).refined
     err = np.abs(refined - truth)
     assert err[:-30].max() < 0.05 and err.max() < 0.35  # measured 0.033 and 0.28 at the last frame (the body's last frame is differenced one-sided)
 
@@ -174,6 +185,17 @@ def test_stage_holds_every_pin_moves_within_its_radius_and_is_better_on_the_samp
         assert r.extra["wrist_shift_frames"] == pytest.approx(np.mean(np.abs(tm - before)), abs=1e-3)
         # the sample's ground truth (hands frame per body frame): closer after the stage
         assert np.mean(np.abs(tm - truth)) < np.mean(np.abs(before - truth)), s
+    # what the risk model reads: the offset added and its posterior's spread, seconds, per body frame
+    for s, r in out.items():
+        assert weighed[s].wrist is None and r.wrist is not None
+        sh, sd = r.wrist.shift_s, r.wrist.sd_s
+        assert sh.shape == sd.shape == r.hands_frame.shape
+        assert np.all(np.isfinite(sh)) and np.all(np.isfinite(sd))  # the sample is covered throughout
+        assert np.all(sh >= 0) and np.all(sd >= 0) and sd.max() <= 0.25  # within the radius
+        assert sh.max() > 0 and 0 < np.median(sd) < 0.1
+        # the shift is the move before the pins and the monotone pass: near the final move, in seconds
+        moved = np.abs(r.hands_frame - weighed[s].hands_frame) / r.markers.spaces.hands_fps
+        assert np.median(np.abs(sh - moved)) < 0.01
     # without pins the stage still never leaves the hands take
     free = {s: replace(r, markers=replace(r.markers, pins=())) for s, r in weighed.items()}
     for s, r in splicer.refine_time_maps(free, SpliceOptions()).items():

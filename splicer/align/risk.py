@@ -3,12 +3,14 @@
 Each signal the alignment has about a body frame (the expected path's spread, how far each
 arm's own path departs from the shared one, the sides' disagreement, how sure the time map's
 smoother is and how far it moved the map, how fast the body's arms move, how near the frame
-is to where the hands' material starts or stops) says something about
+is to where the hands' material starts or stops, and, where the wrist's refinement ran
+(:mod:`splicer.align.wrist`), how sure its offset is and how far it moved the map) says something about
 whether the frame is off, and none says it alone: a wandering arm's path flags good frames,
 a spread of zero misses a confidently wrong stretch.  :func:`error_quantile` weighs them
 together with an ordinal logistic model fitted on the ground-truth protocol
-(``benchmarks/fit_risk.py``, tuning seeds 0-3 of both takes, every scenario; the model in
-:mod:`splicer.align.risk_model`)::
+(``benchmarks/fit_risk.py``, tuning seeds 0-3 of both takes, every scenario; the models in
+:mod:`splicer.align.risk_model`: ``MODEL`` with the wrist's signals, ``MODEL_NO_WRIST`` the same fit
+without them for a side the refinement did not run on)::
 
     P(error > t_k) = 1 / (1 + exp(-(s - theta_k)))       s = sum_j w_j (f_j - mu_j) / sigma_j
 
@@ -31,15 +33,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RiskModel", "SIGNALS", "WINDOWS_S", "risk_signals", "risk_features", "risk_score", "error_quantile",
+__all__ = ["RiskModel", "SIGNALS", "WRIST_SIGNALS", "WINDOWS_S", "risk_signals", "risk_features", "risk_score", "error_quantile",
            "running_max", "running_mean", "distance_to_uncovered"]
 
 #: The per-frame signals the model reads, in order (:func:`risk_signals`): seconds, except the
 #: speeds (relative to their take's root-mean-square).
 SIGNALS = ("spread", "disagreement", "evidence", "own", "other_own", "trend_sd", "trend_shift", "speed", "other_speed",
-           "min_speed")
+           "min_speed", "wrist_sd", "wrist_shift")
+#: Signals a side has only where the wrist's refinement ran (:mod:`splicer.align.wrist`); a model
+#: is fitted with them and one without (:mod:`splicer.align.risk_model`).
+WRIST_SIGNALS = ("wrist_sd", "wrist_shift")
 #: Signals entered as ``log(x + LOG_FLOOR_S)``.
-LOG_SIGNALS = frozenset({"spread", "disagreement", "evidence", "own", "other_own", "trend_sd", "trend_shift"})
+LOG_SIGNALS = frozenset({"spread", "disagreement", "evidence", "own", "other_own", "trend_sd", "trend_shift",
+                         "wrist_sd", "wrist_shift"})
 #: Added to a seconds signal before its logarithm (a quarter of a 30 fps frame).
 LOG_FLOOR_S = 1.0 / 120.0
 #: Each signal also enters as its maximum and its mean over centred windows of these lengths.
@@ -161,7 +167,7 @@ def _speed(relative: np.ndarray) -> np.ndarray:
 
 
 def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, trend_sd_s, trend_shift_s,
-                 body_relative, other_body_relative, speeds=None) -> dict:
+                 body_relative, other_body_relative, speeds=None, wrist_sd_s=None, wrist_shift_s=None) -> dict:
     """The model's per-frame signals (:data:`SIGNALS`) of one side.
 
     Parameters
@@ -182,14 +188,21 @@ def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, tr
     speeds : tuple of np.ndarray, optional
         ``(speed, other_speed)`` already computed from those markers (the other side's signals,
         swapped): then the markers are not read again.
+    wrist_sd_s, wrist_shift_s : np.ndarray [shape=(n,)], optional
+        The wrist's refinement (:class:`splicer.align.wrist.WristEvidence`): its offset
+        posterior's standard deviation and how far it moved the map, seconds.  Both or neither.
 
     Returns
     -------
     dict of str -> np.ndarray [shape=(n,)]
-        NaN (uncovered, or not measured) becomes 0.
+        NaN (uncovered, or not measured) becomes 0.  The wrist's signals only when given.
     """
     s = {"spread": spread_s, "disagreement": disagreement_s, "evidence": evidence_s, "own": own_s,
          "other_own": other_own_s, "trend_sd": trend_sd_s, "trend_shift": trend_shift_s}
+    if (wrist_sd_s is None) != (wrist_shift_s is None):
+        raise ValueError("give both wrist signals or neither")
+    if wrist_sd_s is not None:
+        s["wrist_sd"], s["wrist_shift"] = wrist_sd_s, wrist_shift_s
     out = {k: np.nan_to_num(np.asarray(v, dtype=np.float64), nan=0.0, posinf=0.0) for k, v in s.items()}
     n = len(out["spread"])
     for k, v in out.items():
@@ -201,24 +214,29 @@ def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, tr
     if out["speed"].shape != (n,) or out["other_speed"].shape != (n,):
         raise ValueError(f"the body markers must have {n} frames")
     out["min_speed"] = np.minimum(out["speed"], out["other_speed"])
-    return out
+    return {k: out[k] for k in SIGNALS if k in out}
 
 
 def risk_features(signals: dict, uncovered: np.ndarray, fps: float):
     """Yield ``(name, feature)`` pairs (each shape (n,)) in the model's order.
 
-    Each signal of :data:`SIGNALS` (logarithm for the ones in seconds), then its maximum and its
-    mean over centred windows of :data:`WINDOWS_S`; then the level of each seconds signal (its
-    mean over the longest window, seconds, at most :data:`LEVEL_CAP_S`); then ``edge`` (seconds
-    to the nearest uncovered frame, at most :data:`EDGE_CAP_S`) and ``edge_in`` (1 within
-    :data:`splicer.defaults.COVERAGE_EDGE_S` of one, counted in whole frames as
-    :func:`splicer.stages.coverage.coverage_edges` does).
+    Each signal of :data:`SIGNALS` that ``signals`` holds (every one but the wrist's, which
+    only a side the wrist's refinement ran on has; logarithm for the ones in seconds), then its
+    maximum and its mean over centred windows of :data:`WINDOWS_S`; then the level of each
+    seconds signal (its mean over the longest window, seconds, at most :data:`LEVEL_CAP_S`);
+    then ``edge`` (seconds to the nearest uncovered frame, at most :data:`EDGE_CAP_S`) and
+    ``edge_in`` (1 within :data:`splicer.defaults.COVERAGE_EDGE_S` of one, counted in whole
+    frames as :func:`splicer.stages.coverage.coverage_edges` does).
     """
     from ..defaults import COVERAGE_EDGE_S
 
     if not (fps > 0 and np.isfinite(fps)):
         raise ValueError(f"fps must be positive and finite, got {fps!r}")
-    for name in SIGNALS:
+    missing = [k for k in SIGNALS if k not in signals and k not in WRIST_SIGNALS]
+    if missing or (("wrist_sd" in signals) != ("wrist_shift" in signals)):
+        raise ValueError(f"signals missing: {missing or list(WRIST_SIGNALS)}")
+    present = tuple(k for k in SIGNALS if k in signals)
+    for name in present:
         x = np.asarray(signals[name], dtype=np.float64)
         if name in LOG_SIGNALS:
             x, name = np.log(np.maximum(x, 0.0) + LOG_FLOOR_S), "log_" + name
@@ -228,7 +246,7 @@ def risk_features(signals: dict, uncovered: np.ndarray, fps: float):
             yield f"{name}_max{w:g}", running_max(x, half)
             yield f"{name}_mean{w:g}", running_mean(x, half)
     half = max(1, int(round(WINDOWS_S[-1] * fps / 2)))
-    for name in SIGNALS:
+    for name in present:
         if name in LOG_SIGNALS:  # the level in seconds, where the logarithm flattens what is far too large
             x = np.maximum(np.asarray(signals[name], dtype=np.float64), 0.0)
             yield f"{name}_level", np.minimum(running_mean(x, half), LEVEL_CAP_S)
@@ -237,9 +255,9 @@ def risk_features(signals: dict, uncovered: np.ndarray, fps: float):
     yield "edge_in", (d <= round(COVERAGE_EDGE_S * fps)).astype(np.float64)  # as stages.coverage counts
 
 
-def feature_names() -> tuple:
-    """The names :func:`risk_features` yields, in order."""
-    sig = {k: np.zeros(2) for k in SIGNALS}
+def feature_names(wrist: bool = True) -> tuple:
+    """The names :func:`risk_features` yields, in order, with the wrist's signals or without."""
+    sig = {k: np.zeros(2) for k in SIGNALS if wrist or k not in WRIST_SIGNALS}
     return tuple(name for name, _ in risk_features(sig, np.zeros(2, dtype=bool), 30.0))
 
 

@@ -29,12 +29,15 @@ Measured on the ground-truth protocol (benchmarks/HISTORY.md, 0.17.0).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
 
 from ..transfer.sampling import sample_linear
 
-__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "hand_in_forearm", "turn_onto", "offset_costs", "expected_offsets", "refine_map"]
+__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
+           "WristFit", "WristEvidence", "refine_map"]
 
 #: Offsets are searched on a grid of this many common (body) frames.
 STEP_FRAMES = 0.25
@@ -188,7 +191,7 @@ def _expected_offsets(e, offsets, lam, max_step, temp):
     # starting from the middle column; the posterior mean of each row's offset.  Scaled in the
     # linear domain (each row's weights divided by their sum; each row's emissions taken
     # relative to its smallest cost, so one of them is exp(0)).  Memory: the forward table
-    # (n x S) and a few rows.
+    # (n x S) and a few rows.  Returns (n, 2): each row's posterior mean and standard deviation.
     n, S = e.shape
     zero = S // 2
     kern = np.empty(2 * max_step + 1)
@@ -220,7 +223,7 @@ def _expected_offsets(e, offsets, lam, max_step, temp):
             z = em.sum()
             for s in range(S):
                 fw[t, s] = em[s] / z
-    out = np.empty(n)
+    out = np.empty((n, 2))
     bw = np.ones(S)
     nb = np.empty(S)
     for t in range(n - 1, -1, -1):
@@ -245,19 +248,29 @@ def _expected_offsets(e, offsets, lam, max_step, temp):
             w = fw[t, s] * bw[s]
             z += w
             mean += w * offsets[s]
-        out[t] = mean / z if z > 0.0 else 0.0
+        if z > 0.0:
+            mean /= z
+            var = 0.0
+            for s in range(S):
+                var += fw[t, s] * bw[s] * (offsets[s] - mean) ** 2
+            out[t, 0] = mean
+            out[t, 1] = np.sqrt(var / z)
+        else:
+            out[t, 0] = 0.0
+            out[t, 1] = 0.0
     return out
 
 
-def expected_offsets(e: np.ndarray, offsets: np.ndarray, *, step: float = STEP_FRAMES, lam: float = LAMBDA,
-                     max_step: int = MAX_STEP, temperature: float = 1.0) -> np.ndarray:
-    """Each row's expected offset over paths weighed ``exp(-cost / temperature)``.
+def offset_posterior(e: np.ndarray, offsets: np.ndarray, *, step: float = STEP_FRAMES, lam: float = LAMBDA,
+                     max_step: int = MAX_STEP, temperature: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's expected offset, and its standard deviation, over paths weighed ``exp(-cost / temperature)``.
 
     ``cost = sum e[t, s_t] + lam * sum ((s_t - s_{t-1}) * step)^2`` with ``s_{-1}`` the middle
     column (offset 0): the first row may lie anywhere, at that price; from then on each step
     moves at most ``max_step`` columns.  The expected offset (the posterior's mean,
     forward-backward) is a smooth function of ``e``, where the best path alone would jump
-    between near-equal paths when the input changes in its last digits.
+    between near-equal paths when the input changes in its last digits.  The standard deviation
+    says how sharply the costs pick it (the risk model reads it, :mod:`splicer.align.risk`).
 
     Parameters
     ----------
@@ -268,7 +281,7 @@ def expected_offsets(e: np.ndarray, offsets: np.ndarray, *, step: float = STEP_F
 
     Returns
     -------
-    np.ndarray [shape=(n,), dtype=float64]
+    mean, sd : np.ndarray [shape=(n,), dtype=float64]
         In the unit of ``offsets``.
     """
     e = np.ascontiguousarray(e, dtype=np.float64)
@@ -281,8 +294,33 @@ def expected_offsets(e: np.ndarray, offsets: np.ndarray, *, step: float = STEP_F
         raise ValueError(f"need lam >= 0, step > 0, temperature > 0 and a whole max_step >= 0, "
                          f"got {lam}, {step}, {temperature}, {max_step}")
     if len(e) == 0:
-        return np.zeros(0)
-    return _expected_offsets(e, offsets, float(lam) * step * step, int(max_step), float(temperature))
+        return np.zeros(0), np.zeros(0)
+    out = _expected_offsets(e, offsets, float(lam) * step * step, int(max_step), float(temperature))
+    return out[:, 0].copy(), out[:, 1].copy()
+
+
+def expected_offsets(e: np.ndarray, offsets: np.ndarray, **kw) -> np.ndarray:
+    """The mean of :func:`offset_posterior` (same arguments)."""
+    return offset_posterior(e, offsets, **kw)[0]
+
+
+@dataclass(frozen=True, eq=False)
+class WristFit:
+    """What :func:`refine_map` did to a map.
+
+    Attributes
+    ----------
+    refined : np.ndarray [shape=(n,)]
+        The map, non-decreasing, within ``[0, m - 1]``, common frames.
+    offset : np.ndarray [shape=(n,)]
+        What was added, common frames (before the clip and the monotone pass).
+    sd : np.ndarray [shape=(n,)]
+        The offset posterior's standard deviation, common frames (zero where nothing was searched).
+    """
+
+    refined: np.ndarray
+    offset: np.ndarray
+    sd: np.ndarray
 
 
 def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
@@ -291,8 +329,25 @@ def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
     return gaussian_filter1d(x, sigma, axis=0, mode="nearest") if sigma > 0 and len(x) > 1 else x.copy()
 
 
+@dataclass(frozen=True, eq=False)
+class WristEvidence:
+    """A side's wrist refinement per body frame, seconds (NaN where it did not run): what the
+    risk model reads (:func:`splicer.stages.risk.side_risk_signals`).
+
+    Attributes
+    ----------
+    shift_s : np.ndarray [shape=(n_body,)]
+        How far the refinement moved the map (its smoothed offset, absolute).
+    sd_s : np.ndarray [shape=(n_body,)]
+        The offset posterior's standard deviation.
+    """
+
+    shift_s: np.ndarray
+    sd_s: np.ndarray
+
+
 def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float, radius_s: float,
-               smooth_s: float, offset_smooth_s: float, slope_s: float) -> tuple[np.ndarray, np.ndarray]:
+               smooth_s: float, offset_smooth_s: float, slope_s: float) -> WristFit:
     """The map ``c`` (common frames, one per body frame) moved by the wrist's best smooth offset.
 
     Parameters
@@ -311,15 +366,12 @@ def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray,
 
     Returns
     -------
-    refined : np.ndarray [shape=(n,)]
-        Non-decreasing, within ``[0, m - 1]``.
-    offset : np.ndarray [shape=(n,)]
-        What was added, common frames (before the clip and the monotone pass).
+    WristFit
     """
     c = np.asarray(c, dtype=np.float64)
     n, m = len(c), len(hands_points)
     if n < 2 or m < 2 or not radius_s > 0:
-        return c.copy(), np.zeros(n)
+        return WristFit(c.copy(), np.zeros(n), np.zeros(n))
     if not np.isfinite(c).all():
         raise ValueError("the map must be finite over the frames refined")
     xb = _smooth(hand_in_forearm(body_points), smooth_s * fps)
@@ -330,5 +382,6 @@ def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray,
     radius = radius_s * fps
     offsets = np.arange(-np.floor(radius / STEP_FRAMES), np.floor(radius / STEP_FRAMES) + 1) * STEP_FRAMES
     e = offset_costs(vb, vh, c, slope, offsets)
-    d = _smooth(expected_offsets(e, offsets), offset_smooth_s * fps)
-    return np.maximum.accumulate(np.clip(c + d, 0.0, m - 1.0)), d
+    mean, sd = offset_posterior(e, offsets)
+    d = _smooth(mean, offset_smooth_s * fps)
+    return WristFit(np.maximum.accumulate(np.clip(c + d, 0.0, m - 1.0)), d, sd)

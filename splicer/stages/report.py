@@ -37,6 +37,7 @@ class SideResult:
     joints: dict = field(default_factory=dict)  # output joint -> hands joints driving it
     extra: dict = field(default_factory=dict)  # JSON-ready report keys of later stages
     trend: object = None  # the time map's smoother (splicer.transfer.trend.TrendFit), once the trend stage ran
+    wrist: object = None  # the wrist's refinement (splicer.align.wrist.WristEvidence), where it ran
 
     @property
     def pass1(self):

@@ -7,7 +7,9 @@ every signal is a little raised but none is large (README *Accuracy*).  This sta
 it, where both arms were aligned with one pass 1 (the default for two sides), with the 98th
 percentile of the frame's error estimated by an ordinal logistic model of those signals, the
 time-map smoother's standard deviation and shift (:func:`splicer.stages.transfer.trend_time_maps`
-runs first) and the body's arm speeds (:mod:`splicer.align.risk`;
+runs first), the wrist's refinement's standard deviation and shift where it ran
+(:func:`splicer.stages.transfer.refine_time_maps`; a side it did not run on gets the model
+fitted without them) and the body's arm speeds (:mod:`splicer.align.risk`;
 :data:`splicer.defaults.RISK_QUANTILE`).
 The previous estimate stays in the confidence as ``evidence_error_s``.  One side, each arm
 aligned on its own, or a take whose motion does not match the hands' at all (the floor of
@@ -44,11 +46,13 @@ def side_risk_signals(r, other, speeds=None) -> dict | None:
         other_own = np.abs(np.asarray(b.own, dtype=np.float64) - mean) / fps
     n = len(conf.est_error_s)
     dis = conf.disagreement_s if conf.disagreement_s is not None else np.zeros(n)
+    w = r.wrist  # the wrist's refinement, where it ran (splicer.align.wrist.WristEvidence)
     return risk_signals(spread_s=np.asarray(conf.spread_frames, dtype=np.float64) / fps, disagreement_s=dis,
                         evidence_s=conf.est_error_s if conf.evidence_error_s is None else conf.evidence_error_s, own_s=own, other_own_s=other_own,
                         trend_sd_s=r.trend.sd_s, trend_shift_s=r.trend.shift_s,
                         body_relative=None if speeds is not None else r.markers.body.relative(),
-                        other_body_relative=None if speeds is not None else other.markers.body.relative(), speeds=speeds)
+                        other_body_relative=None if speeds is not None else other.markers.body.relative(), speeds=speeds,
+                        wrist_sd_s=None if w is None else w.sd_s, wrist_shift_s=None if w is None else w.shift_s)
 
 
 def estimate_risk(sides: dict, model=None, q: float = RISK_QUANTILE) -> dict:
@@ -59,7 +63,8 @@ def estimate_risk(sides: dict, model=None, q: float = RISK_QUANTILE) -> dict:
     sides : dict of str -> SideResult
         The finished sides of a splice, after :func:`splicer.stages.crosscheck.cross_check`.
     model : RiskModel, optional
-        Default :data:`splicer.align.risk_model.MODEL`.
+        Default :data:`splicer.align.risk_model.MODEL` for a side the wrist's refinement ran on,
+        :data:`~splicer.align.risk_model.MODEL_NO_WRIST` for one it did not.
     q : float
         The quantile, in (0, 1).
 
@@ -72,9 +77,7 @@ def estimate_risk(sides: dict, model=None, q: float = RISK_QUANTILE) -> dict:
     """
     from .align import _unmatched
 
-    if model is None:
-        from ..align.risk_model import MODEL as model
-    if model is None or len(sides) != 2:
+    if len(sides) != 2:
         return dict(sides)
     (sa, ra), (sb, rb) = sides.items()
     out = dict(sides)
@@ -87,7 +90,12 @@ def estimate_risk(sides: dict, model=None, q: float = RISK_QUANTILE) -> dict:
             continue
         speeds = (sig["other_speed"], sig["speed"])
         fps = float(r.markers.spaces.body_fps)
-        score = risk_score(model, sig, ~np.isfinite(np.asarray(r.hands_frame, dtype=np.float64)), fps)
-        conf = r.alignment.confidence.with_estimate(error_quantile(model, score, q))
+        m = model
+        if m is None:
+            from ..align import risk_model
+
+            m = risk_model.MODEL if "wrist_sd" in sig else risk_model.MODEL_NO_WRIST
+        score = risk_score(m, sig, ~np.isfinite(np.asarray(r.hands_frame, dtype=np.float64)), fps)
+        conf = r.alignment.confidence.with_estimate(error_quantile(m, score, q))
         out[s] = replace(r, alignment=replace(r.alignment, confidence=conf))
     return out

@@ -140,11 +140,12 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
     -------
     dict of str -> SideResult
         ``hands_frame`` replaced over each side's covered span; ``extra["wrist_shift_frames"]``:
-        the mean absolute move, hands frames.
+        the mean absolute move, hands frames; ``wrist`` the refinement's
+        :class:`~splicer.align.wrist.WristEvidence`.
     """
     from dataclasses import replace
 
-    from ..align.wrist import comparable_placements, refine_map
+    from ..align.wrist import WristEvidence, comparable_placements, refine_map
     from ..defaults import WRIST_OFFSET_SMOOTH_S, WRIST_SLOPE_S, WRIST_SMOOTH_S
     from ..transfer.timemap import monotone_pinned
 
@@ -163,13 +164,16 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
             out[s] = r
             continue
         log.progress(f"{s}: wrist", 0.0)
-        refined, _ = refine_map(body_pts, hands_pts, sp.hands_to_common(span),
-                                fps=sp.body_fps, radius_s=opts.wrist_radius_s, smooth_s=WRIST_SMOOTH_S,
-                                offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
-        new = monotone_pinned(sp.common_to_hands(refined), last=sp.n_hands - 1, pins=_span_pins(r.markers.pins, a, b))
+        fit = refine_map(body_pts, hands_pts, sp.hands_to_common(span),
+                         fps=sp.body_fps, radius_s=opts.wrist_radius_s, smooth_s=WRIST_SMOOTH_S,
+                         offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
+        new = monotone_pinned(sp.common_to_hands(fit.refined), last=sp.n_hands - 1, pins=_span_pins(r.markers.pins, a, b))
         moved = float(np.mean(np.abs(new - span)))
         tm[a:b + 1] = new
-        out[s] = replace(r, hands_frame=tm, extra={**r.extra, "wrist_shift_frames": round(moved, 3)})
+        shift, sd = np.full(len(tm), np.nan), np.full(len(tm), np.nan)
+        shift[a:b + 1], sd[a:b + 1] = np.abs(fit.offset) / sp.body_fps, fit.sd / sp.body_fps  # common frames: the body rate
+        out[s] = replace(r, hands_frame=tm, extra={**r.extra, "wrist_shift_frames": round(moved, 3)},
+                         wrist=WristEvidence(shift_s=shift, sd_s=sd))
         log.progress(f"{s}: wrist", 1.0)
     return out
 

@@ -16,7 +16,8 @@ Stages (each returns a typed result; :func:`splice` composes them)
     :func:`load_inputs` -> :func:`find_rig` -> :func:`condition_hands` -> :func:`side_markers`
     -> :func:`align_side` (both sides: :func:`align_pair`, with one noise decision,
     :func:`phase_smoothing`) -> :func:`time_map` -> on the sides' :class:`SideResult`:
-    :func:`cross_check` -> :func:`trend_time_maps` -> :func:`refine_time_maps` -> :func:`estimate_risk` ->
+    :func:`cross_check` -> :func:`trend_time_maps` -> :func:`refine_time_maps` -> (a noisy pair:
+    :func:`position_second_opinion`) -> :func:`estimate_risk` ->
     :func:`uncover_unsure_edges` -> :func:`mark_coverage_edges` -> :func:`transfer_side` -> :func:`check_fingers` -> :func:`build_report`.
 The constraints file
     :func:`read_config`, :func:`parse_config`, :class:`SpliceConfig`, :class:`Pin`.
@@ -61,6 +62,7 @@ _LAZY = {
     "time_map": ".pipeline", "transfer_side": ".pipeline", "build_report": ".pipeline",
     "cross_check": ".pipeline", "estimate_risk": ".pipeline", "mark_coverage_edges": ".pipeline",
     "trend_time_maps": ".pipeline", "refine_time_maps": ".pipeline", "uncover_unsure_edges": ".pipeline",
+    "position_second_opinion": ".pipeline",
     "SpliceOptions": ".options",
     "Report": ".report", "SideReport": ".report",
     "read_config": ".io.config", "parse_config": ".io.config", "SpliceConfig": ".io.config",

@@ -72,6 +72,15 @@ POSITION_WEIGHT = 3.0
 #: ... and where noise matching smoothed the pair (derivative signs are less to be trusted),
 #: in every pass of pass 1, open-ended ones included (:func:`splicer.stages.align.position_weights`).
 POSITION_WEIGHT_NOISY = 10.0
+#: ... and a noisy pair (a second performance) is aligned again with this weight, keeping the
+#: pair of time maps along which the hand moves relative to the forearm more alike in both takes
+#: (:mod:`splicer.stages.recheck`, 0.18.0; 0 switches it off).  Tuning seeds 0-3, both takes,
+#: the noisy scenarios (imitation, *all*, and imitation with speed changes or a pause): the
+#: second alignment kept in 19 of 40 pairs, 14 of them better, 2 worse by at most 0.005 s; the
+#: synthetic speed + imitation 0.116 -> 0.061 s mean error, pause-hands + imitation 0.042 ->
+#: 0.033 and 0.025 -> 0.018 s (benchmarks/HISTORY.md, 0.18.0).  A weight of 30 everywhere would
+#: cost the imitation (synthetic 0.030 -> 0.035 s).
+POSITION_WEIGHT_RECHECK = 30.0
 #: D1's sign dead zone: components below this share of the motion's RMS velocity
 #: (acceleration) count as zero.
 DEAD_ZONE = 0.01

@@ -1,5 +1,6 @@
 """The whole job as stages: load -> rig -> markers -> align -> time map -> cross-check -> time map
-weighed by the expected path's spread -> the wrist's refinement -> risk -> coverage edges -> transfer -> report.
+weighed by the expected path's spread -> the wrist's refinement -> (a noisy pair: a second opinion)
+-> risk -> coverage edges -> transfer -> report.
 
 :func:`splice` composes the stages of :mod:`splicer.stages` (one module each); each stage is
 a function with a typed, frozen result, usable on its own (notebooks, other tools), and
@@ -16,6 +17,7 @@ from .options import SpliceOptions, resolve_options
 from .stages.align import Alignment, _choose_ends, _cover_pins, _pin_error, agree_ends, align_pair, align_side, phase_smoothing  # noqa: F401
 from .stages.coverage import coverage_edges, mark_coverage_edges, uncover_unsure_edges, unsure_edges
 from .stages.crosscheck import cross_check, hands_disagreement
+from .stages.recheck import position_second_opinion
 from .stages.risk import estimate_risk
 from .stages.load import Inputs, load_inputs
 from .stages.log import Log
@@ -26,7 +28,7 @@ from .stages.transfer import Transfer, check_fingers, refine_time_maps, time_map
 
 __all__ = ["Inputs", "Rig", "Conditioned", "SideMarkers", "Alignment", "Transfer", "SideResult", "SpliceResult", "Log",
            "load_inputs", "find_rig", "condition_hands", "side_markers", "phase_smoothing", "align_side", "align_pair", "agree_ends", "time_map", "trend_time_maps", "refine_time_maps", "transfer_side",
-           "check_fingers", "cross_check", "hands_disagreement", "estimate_risk", "unsure_edges", "uncover_unsure_edges", "coverage_edges", "mark_coverage_edges", "build_report",
+           "check_fingers", "cross_check", "hands_disagreement", "position_second_opinion", "estimate_risk", "unsure_edges", "uncover_unsure_edges", "coverage_edges", "mark_coverage_edges", "build_report",
            "splice"]
 
 
@@ -71,15 +73,25 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     ends = opts.ends or inputs.config.ends or "auto"
     offset_s = opts.offset_s if opts.offset_s is not None else inputs.config.offset_s
     marks = {s: side_markers(inputs, rig, s, log) for s in rig.sides}
-    aligned = align_pair(marks, opts, log, ends=ends, offset_s=offset_s)  # both arms; one noise decision
-    sides = {s: SideResult(s, time_map(aligned[s], marks[s], opts), marks[s], aligned[s]) for s in rig.sides}
-    log.tick("time map")
-    sides = cross_check(sides, log)  # both hands come from one take: where their time maps part, one is off
-    log.tick("cross-check")
-    sides = trend_time_maps(sides, opts)  # each map weighed by the expected path's spread, the tempo drifting smoothly
-    log.tick("trend")
-    sides = refine_time_maps(sides, opts, log)  # the hand's motion relative to the forearm: the last frame or two
-    log.tick("wrist")
+
+    def realign(o, lg):  # both arms; one noise decision
+        return align_pair(marks, o, lg, ends=ends, offset_s=offset_s)
+
+    def finish(aligned, lg):
+        sides = {s: SideResult(s, time_map(aligned[s], marks[s], opts), marks[s], aligned[s]) for s in rig.sides}
+        lg.tick("time map")
+        sides = cross_check(sides, lg)  # both hands come from one take: where their time maps part, one is off
+        lg.tick("cross-check")
+        sides = trend_time_maps(sides, opts)  # each map weighed by the expected path's spread, the tempo drifting smoothly
+        lg.tick("trend")
+        sides = refine_time_maps(sides, opts, lg)  # the hand's motion relative to the forearm: the last frame or two
+        lg.tick("wrist")
+        return sides
+
+    since = len(log.warnings)
+    sides = finish(realign(opts, log), log)
+    # a noisy pair: aligned again with the positions weighed more, the better-matching maps kept
+    sides = position_second_opinion(sides, opts, log, realign=realign, finish=finish, since=since)
     sides = estimate_risk(sides)  # every signal weighed together: the error's 98th percentile per frame
     sides = uncover_unsure_edges(sides, opts, log)  # unsure stretches next to uncovered frames: other material
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from splicer.align.wrist import (comparable_placements, expected_offsets, hand_in_forearm, offset_costs, offset_posterior,
-                                 refine_map, turn_onto)
+                                 rate_mismatch, refine_map, turn_onto)
 
 
 def _slow_posterior(e, step, lam, max_step, temperature):
@@ -134,6 +134,27 @@ def test_refine_map_recovers_a_shift():
     with pytest.raises(ValueError, match="finite"):
         refine_map(body, hands, np.where(np.arange(250) == 5, np.nan, wrong), fps=fps, radius_s=0.25, smooth_s=0.05,
                    offset_smooth_s=0.3, slope_s=0.5)
+
+
+def test_rate_mismatch_worked():
+    fps = 30.0
+    hands = _arm(np.arange(400, dtype=float))
+    truth = 50.0 + np.arange(250)  # body frame i shows hands frame 50 + i
+    body = _arm(truth)
+    right = rate_mismatch(body, hands, truth, fps=fps, smooth_s=0.05)
+    late = rate_mismatch(body, hands, truth + 3.0, fps=fps, smooth_s=0.05)
+    assert right < 0.01  # the same motion (measured 0.0027: the body's smoothing meets its ends)
+    assert late > 0.3 and late > 100 * right  # three frames late: the rates part (measured 0.55; one frame 0.067)
+    # the same hand turned as a whole in the hands take (markers placed a little differently): no matter
+    a = 0.4
+    rot = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+    assert rate_mismatch(body, hands @ rot.T, truth, fps=fps, smooth_s=0.05) == pytest.approx(right, abs=1e-9)
+    # nothing to compare: NaN; a map that is not a number: an error
+    assert np.isnan(rate_mismatch(body[:2], hands, truth[:2], fps=fps, smooth_s=0.05))
+    still = np.repeat(body[:1], 250, axis=0)
+    assert np.isnan(rate_mismatch(still, hands, truth, fps=fps, smooth_s=0.05))
+    with pytest.raises(ValueError, match="finite"):
+        rate_mismatch(body, hands, np.where(np.arange(250) == 7, np.nan, truth), fps=fps, smooth_s=0.05)
 
 
 def test_refine_map_leaves_a_right_map_alone():

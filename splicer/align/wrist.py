@@ -37,7 +37,7 @@ from numba import njit
 from ..transfer.sampling import sample_linear
 
 __all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
-           "WristFit", "WristEvidence", "refine_map"]
+           "WristFit", "WristEvidence", "refine_map", "rate_mismatch"]
 
 #: Offsets are searched on a grid of this many common (body) frames.
 STEP_FRAMES = 0.25
@@ -385,3 +385,41 @@ def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray,
     mean, sd = offset_posterior(e, offsets)
     d = _smooth(mean, offset_smooth_s * fps)
     return WristFit(np.maximum.accumulate(np.clip(c + d, 0.0, m - 1.0)), d, sd)
+
+
+def rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float,
+                  smooth_s: float) -> float:
+    """How unlike the body's the hands' hand-in-forearm motion is along the map ``c``.
+
+    The hands' direction (:func:`hand_in_forearm`, smoothed over ``smooth_s``) is sampled along
+    the map and turned onto the body's (:func:`turn_onto`); the mean squared difference of the
+    two per-body-frame rates of change, over the body's mean squared rate.  0: the hand moves
+    alike in both takes along the map; about 2 for unrelated motion.  Two alignments of one pair
+    compare by it (:mod:`splicer.stages.recheck`): it reads what pass 1 does not, the hand
+    relative to the forearm, which a second performance's arm noise leaves clean.
+
+    Parameters
+    ----------
+    body_points, hands_points, c, fps
+        As :func:`refine_map` (``c`` finite, any order).
+    smooth_s : float
+        The markers' smoothing, seconds.
+
+    Returns
+    -------
+    float
+        NaN with fewer than 3 frames or a body hand that does not move.
+    """
+    c = np.asarray(c, dtype=np.float64)
+    if len(c) < 3 or len(hands_points) < 2:
+        return float("nan")
+    if not np.isfinite(c).all():
+        raise ValueError("the map must be finite")
+    xb = _smooth(hand_in_forearm(body_points), smooth_s * fps)
+    xh = sample_linear(_smooth(hand_in_forearm(hands_points), smooth_s * fps), c)
+    xh = xh @ turn_onto(xh, xb).T
+    vb, vh = np.gradient(xb, axis=0), np.gradient(xh, axis=0)
+    energy = float(np.mean(np.sum(vb ** 2, axis=1)))
+    if not energy > 0:
+        return float("nan")
+    return float(np.mean(np.sum((vb - vh) ** 2, axis=1)) / energy)

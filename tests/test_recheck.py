@@ -1,0 +1,124 @@
+"""Stage 6c's second opinion (splicer.stages.recheck): a noisy pair aligned again with the arms'
+positions weighed more, the pair of maps the hand's motion relative to the forearm matches
+better along kept."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import splicer.defaults as D
+import splicer.stages.recheck as R
+from splicer.options import SpliceOptions
+from splicer.stages.log import Log
+
+N = 60
+FULL = "p1-p2 index-pinky, p3 elbow, p4 middle"
+
+
+def _side(weight=D.POSITION_WEIGHT_NOISY, shift=0.0, **mk):
+    pts = np.ones((N, 4, 3))
+    markers = dict(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0), hand_only=False, real={},
+                   body=SimpleNamespace(points=pts), hands=SimpleNamespace(points=pts), placed=(FULL, FULL))
+    markers.update(mk)
+    return SimpleNamespace(alignment=SimpleNamespace(pass1=SimpleNamespace(position_weight=weight)),
+                           markers=SimpleNamespace(**markers), hands_frame=2.0 * np.arange(N) + shift)
+
+
+def _pair(**kw):
+    return {"left": _side(**kw), "right": _side(**kw)}
+
+
+@pytest.fixture
+def stand_ins(monkeypatch):
+    """``realign`` and ``finish`` that record their calls and return a second pair (shifted by
+    one hands frame); ``map_mismatch`` read from a table keyed by which pair it is given."""
+    calls, mismatch = [], {}
+    second = _pair(shift=1.0)
+
+    def realign(opts, log):
+        calls.append(opts.position_weight)
+        log.note("second run")
+        return "aligned"
+
+    def finish(aligned, log):
+        assert aligned == "aligned"
+        return second
+
+    monkeypatch.setattr(R, "map_mismatch", lambda sides, frames: mismatch[sides is second])
+    return SimpleNamespace(calls=calls, mismatch=mismatch, second=second, realign=realign, finish=finish)
+
+
+def test_the_better_matching_pair_is_kept(stand_ins):
+    first = _pair()
+    stand_ins.mismatch.update({False: 0.6, True: 0.4})
+    log = Log()
+    log.note("smoothed")  # a note from before the alignment: kept either way
+    log.note("first run")
+    out = R.position_second_opinion(first, SpliceOptions(), log, realign=stand_ins.realign, finish=stand_ins.finish,
+                                    since=1)
+    assert out is stand_ins.second and stand_ins.calls == [D.POSITION_WEIGHT_RECHECK]
+    assert log.warnings[:2] == ["smoothed", "second run"] and len(log.warnings) == 3
+    assert "weighed 30 instead of 10" in log.warnings[2] and "mismatch 0.400 against 0.600" in log.warnings[2]
+    assert "position second opinion" in log.timings
+
+    stand_ins.mismatch.update({False: 0.4, True: 0.6})  # worse: the first pair and its notes stay
+    log = Log()
+    log.note("first run")
+    out = R.position_second_opinion(first, SpliceOptions(), log, realign=stand_ins.realign, finish=stand_ins.finish,
+                                    since=0)
+    assert out is first and log.warnings == ["first run"]
+    stand_ins.mismatch.update({False: 0.5, True: 0.5})  # a tie keeps the first
+    assert R.position_second_opinion(first, SpliceOptions(), Log(), realign=stand_ins.realign,
+                                     finish=stand_ins.finish, since=0) is first
+
+
+@pytest.mark.parametrize("case", ["weight given", "clean pair", "hand-only", "optical", "placed apart", "not a number",
+                                  "one side", "switched off"])
+def test_who_gets_no_second_opinion(stand_ins, monkeypatch, case):
+    opts, sides = SpliceOptions(), _pair()
+    if case == "weight given":
+        opts = SpliceOptions(position_weight=10.0)
+    elif case == "clean pair":  # noise matching did not smooth it: pass 1 weighed positions by 3
+        sides = _pair(weight=D.POSITION_WEIGHT)
+    elif case == "hand-only":
+        sides = _pair(hand_only=True)
+    elif case == "optical":
+        sides = _pair(real={"hands": {}})
+    elif case == "placed apart":  # a wrist-rooted hand file's forearm turns with the hand
+        sides = _pair(placed=(FULL, "p1-p2 index-pinky, p3 hand, p4 middle"))
+    elif case == "not a number":
+        bad = np.ones((N, 4, 3))
+        bad[5, 0, 0] = np.nan
+        sides = _pair(body=SimpleNamespace(points=bad))
+    elif case == "one side":
+        sides = {"left": _side()}
+    else:
+        monkeypatch.setattr(D, "POSITION_WEIGHT_RECHECK", 0.0)
+    assert not R.wants_second_opinion(sides, opts)
+    out = R.position_second_opinion(sides, opts, Log(), realign=stand_ins.realign, finish=stand_ins.finish, since=0)
+    assert out is sides and stand_ins.calls == []
+
+
+def test_map_mismatch_reads_the_frames_both_cover():
+    """The real rate_mismatch along each side's map, averaged over the sides (a hand whose
+    direction in the forearm's frame swings; the hands take at twice the rate)."""
+    from splicer.align.wrist import rate_mismatch
+
+    t = np.arange(200, dtype=float)
+    body = np.zeros((200, 4, 3))
+    body[:, 0], body[:, 1], body[:, 2] = [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-10.0, 0.0, 0.0]
+    a = 0.6 * np.sin(t / 5.0)
+    body[:, 3] = np.stack([np.cos(a), np.zeros(200), np.sin(a)], axis=1) * 3.0
+    side = SimpleNamespace(markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0),
+                                                   body=SimpleNamespace(points=body), hands=SimpleNamespace(points=body)),
+                           hands_frame=2.0 * t)
+    late = SimpleNamespace(markers=side.markers, hands_frame=2.0 * t + 4.0)  # two body frames late
+    frames = np.arange(20, 180)
+    right = R.map_mismatch({"left": side, "right": side}, frames)
+    assert right < 0.01
+    both = R.map_mismatch({"left": side, "right": late}, frames)
+    want = rate_mismatch(body[frames], body, t[frames] + 2.0, fps=30.0, smooth_s=D.WRIST_SMOOTH_S)
+    assert both == pytest.approx((right + want) / 2) and want > 10 * right

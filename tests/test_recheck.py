@@ -18,12 +18,13 @@ N = 60
 FULL = "p1-p2 index-pinky, p3 elbow, p4 middle"
 
 
-def _side(weight=D.POSITION_WEIGHT_NOISY, shift=0.0, **mk):
+def _side(weight=D.POSITION_WEIGHT_NOISY, shift=0.0, ratio=0.5, **mk):
     pts = np.ones((N, 4, 3))
     markers = dict(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0), hand_only=False, real={},
                    body=SimpleNamespace(points=pts), hands=SimpleNamespace(points=pts), placed=(FULL, FULL))
     markers.update(mk)
-    return SimpleNamespace(alignment=SimpleNamespace(pass1=SimpleNamespace(position_weight=weight)),
+    return SimpleNamespace(alignment=SimpleNamespace(pass1=SimpleNamespace(position_weight=weight),
+                                                     evidence=SimpleNamespace(ratio=ratio)),
                            markers=SimpleNamespace(**markers), hands_frame=2.0 * np.arange(N) + shift)
 
 
@@ -76,7 +77,7 @@ def test_the_better_matching_pair_is_kept(stand_ins):
 
 
 @pytest.mark.parametrize("case", ["weight given", "clean pair", "hand-only", "optical", "placed apart", "not a number",
-                                  "one side", "switched off"])
+                                  "one side", "another performance", "switched off"])
 def test_who_gets_no_second_opinion(stand_ins, monkeypatch, case):
     opts, sides = SpliceOptions(), _pair()
     if case == "weight given":
@@ -95,6 +96,8 @@ def test_who_gets_no_second_opinion(stand_ins, monkeypatch, case):
         sides = _pair(body=SimpleNamespace(points=bad))
     elif case == "one side":
         sides = {"left": _side()}
+    elif case == "another performance":  # no better than the hands played backwards: all low confidence anyway
+        sides = _pair(ratio=D.BACKWARDS_RATIO)
     else:
         monkeypatch.setattr(D, "POSITION_WEIGHT_RECHECK", 0.0)
     assert not R.wants_second_opinion(sides, opts)

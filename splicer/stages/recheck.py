@@ -29,14 +29,19 @@ def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
     """Whether the pair gets a second opinion: two sides whose pass 1 weighed positions by
     noise matching's weight (``position_weight="auto"``: no hand-only file, no optical markers),
     whose hand-in-forearm motion compares (:func:`splicer.align.wrist.comparable_placements`,
-    finite markers), and the check not switched off (``POSITION_WEIGHT_RECHECK`` 0)."""
+    finite markers), whose takes may show one performance (the check against the hands played
+    backwards did not find the alignment no better than unrelated material: another weight
+    would not make it so), and the check not switched off (``POSITION_WEIGHT_RECHECK`` 0)."""
     from ..align.wrist import comparable_placements
+    from .align import _unmatched
 
     if len(sides) != 2 or opts.position_weight != "auto" or not D.POSITION_WEIGHT_RECHECK > 0:
         return False
     for r in sides.values():
         p1, mk = r.alignment.pass1, r.markers
         if p1 is None or getattr(p1, "position_weight", None) != D.POSITION_WEIGHT_NOISY:
+            return False
+        if _unmatched(getattr(r.alignment, "evidence", None)):
             return False
         if mk.hand_only or mk.real or not comparable_placements(*mk.placed):
             return False

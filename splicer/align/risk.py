@@ -214,7 +214,7 @@ def risk_signals(*, spread_s, disagreement_s, evidence_s, own_s, other_own_s, tr
     if out["speed"].shape != (n,) or out["other_speed"].shape != (n,):
         raise ValueError(f"the body markers must have {n} frames")
     out["min_speed"] = np.minimum(out["speed"], out["other_speed"])
-    return {k: out[k] for k in SIGNALS if k in out}
+    return out
 
 
 def risk_features(signals: dict, uncovered: np.ndarray, fps: float):

@@ -36,7 +36,7 @@ from numba import njit
 
 from ..transfer.sampling import sample_linear
 
-__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
+__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "markers_compare", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
            "WristFit", "WristEvidence", "refine_map", "rate_mismatch"]
 
 #: Offsets are searched on a grid of this many common (body) frames.
@@ -111,6 +111,14 @@ def comparable_placements(body: str, hands: str) -> bool:
         return False
     return (body == hands or body.replace(_P3_ELBOW, _P3_FOREARM_JOINT) == hands
             or {body, hands} == {"optical", ANATOMICAL})
+
+
+def markers_compare(placed: tuple, body_points: np.ndarray, hands_points: np.ndarray) -> bool:
+    """Whether the wrist's signal can be read from these markers: placements that compare
+    (:func:`comparable_placements`, ``placed`` as ``(body, hands)``) and every marker a number.
+    The one rule for the wrist's refinement (:func:`splicer.stages.transfer.refine_time_maps`)
+    and the second opinion that reads the same signal (:mod:`splicer.stages.recheck`)."""
+    return bool(comparable_placements(*placed) and np.isfinite(body_points).all() and np.isfinite(hands_points).all())
 
 
 def turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:

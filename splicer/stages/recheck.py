@@ -28,11 +28,10 @@ __all__ = ["wants_second_opinion", "map_mismatch", "position_second_opinion"]
 def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
     """Whether the pair gets a second opinion: two sides whose pass 1 weighed positions by
     noise matching's weight (``position_weight="auto"``: no hand-only file, no optical markers),
-    whose hand-in-forearm motion compares (:func:`splicer.align.wrist.comparable_placements`,
-    finite markers), whose takes may show one performance (the check against the hands played
+    whose hand-in-forearm motion compares (:func:`splicer.align.wrist.markers_compare`), whose takes may show one performance (the check against the hands played
     backwards did not find the alignment no better than unrelated material: another weight
     would not make it so), and the check not switched off (``POSITION_WEIGHT_RECHECK`` 0)."""
-    from ..align.wrist import comparable_placements
+    from ..align.wrist import markers_compare
     from .align import _unmatched
 
     if len(sides) != 2 or opts.position_weight != "auto" or not D.POSITION_WEIGHT_RECHECK > 0:
@@ -43,9 +42,7 @@ def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
             return False
         if _unmatched(getattr(r.alignment, "evidence", None)):
             return False
-        if mk.hand_only or mk.real or not comparable_placements(*mk.placed):
-            return False
-        if not (np.isfinite(mk.body.points).all() and np.isfinite(mk.hands.points).all()):
+        if mk.hand_only or mk.real or not markers_compare(mk.placed, mk.body.points, mk.hands.points):
             return False
     return True
 

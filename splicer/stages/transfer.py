@@ -145,7 +145,7 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
     """
     from dataclasses import replace
 
-    from ..align.wrist import WristEvidence, comparable_placements, refine_map
+    from ..align.wrist import WristEvidence, markers_compare, refine_map
     from ..defaults import WRIST_OFFSET_SMOOTH_S, WRIST_SLOPE_S, WRIST_SMOOTH_S
     from ..transfer.timemap import monotone_pinned
 
@@ -159,8 +159,7 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
         tm = np.array(r.hands_frame, dtype=np.float64)
         span = tm[a:b + 1]
         body_pts, hands_pts = r.markers.body.points[a:b + 1], r.markers.hands.points
-        if (b - a < 2 or not np.isfinite(span).all() or not comparable_placements(*r.markers.placed)
-                or not (np.isfinite(body_pts).all() and np.isfinite(hands_pts).all())):
+        if b - a < 2 or not np.isfinite(span).all() or not markers_compare(r.markers.placed, body_pts, hands_pts):
             out[s] = r
             continue
         log.progress(f"{s}: wrist", 0.0)

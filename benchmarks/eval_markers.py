@@ -19,6 +19,9 @@ as in :mod:`splicer.evaluation.evaluate` (a body frame left uncovered is scored 
 "uncovered" is their share).
 
     python benchmarks/eval_markers.py [--seeds 100 101 102 103 104] [--out benchmarks/results_markers.md]
+
+Two takes, as the scenario protocol: the shared ZEGGS take (skipped with a note when absent) and
+the synthetic speaker the project makes (:func:`splicer.evaluation.evaluate.default_takes`).
 """
 
 from __future__ import annotations
@@ -55,8 +58,8 @@ RIGID = SpliceConfig(markers={"body": {"derive": "rigid"}, "hands": {"derive": "
 VARIANTS = {"both C3D, rigid segments, no noise, no gaps": dict(config=RIGID, noise_mm=(0.0, 0.0), gaps_per_minute=0.0)}
 
 
-def run(take_path: Path, seeds, *, hands_fps=100.0, body_fps=120.0) -> pd.DataFrame:
-    take = read_bvh(take_path)
+def run(take, seeds, *, hands_fps=100.0, body_fps=120.0) -> pd.DataFrame:
+    take = take if not isinstance(take, (str, Path)) else read_bvh(take)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
@@ -88,9 +91,9 @@ def run(take_path: Path, seeds, *, hands_fps=100.0, body_fps=120.0) -> pd.DataFr
     return pd.DataFrame(rows)
 
 
-def to_markdown(df: pd.DataFrame, take_path: Path) -> str:
+def to_markdown(df: pd.DataFrame, take_name: str) -> str:
     g = df.groupby("method", sort=False)
-    lines = [f"Take: {take_path.name}; seeds {', '.join(str(s) for s in sorted(df.seed.unique()))}; "
+    lines = [f"Take: {take_name}; seeds {', '.join(str(s) for s in sorted(df.seed.unique()))}; "
              f"markers missing: {df.missing_pct.mean():.1f}% of samples (gaps 0.05-1 s).", "",
              "| alignment on | mean error, frames (worst seed) | max error, frames | within 1 frame, % | "
              "within 3 frames, % | uncovered, % |", "|---|---:|---:|---:|---:|---:|"]
@@ -172,14 +175,29 @@ def real_warp_check(path: Path = SHARED_C3D) -> str:
 
 
 def main(argv=None) -> int:
+    from splicer.evaluation.synth import make_gesture_take
+
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--take", type=Path, default=TAKE)
+    p.add_argument("--take", type=Path, nargs="*", default=None,
+                   help="BVH takes (default: the ZEGGS take when present, and the synthetic speaker)")
     p.add_argument("--seeds", type=int, nargs="+", default=[100, 101, 102, 103, 104])
     p.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results_markers.md")
     args = p.parse_args(argv)
-    df = run(args.take, args.seeds)
-    df.to_csv(args.out.with_suffix(".csv"), index=False)
-    text = to_markdown(df, args.take)
+    if args.take:
+        takes = [(t.name, t) for t in args.take]
+    else:
+        takes = [(TAKE.name, TAKE)] if TAKE.exists() else []
+        if not takes:
+            print(f"{TAKE} is absent: the synthetic speaker alone")
+        takes.append(("synthetic speaker (make_gesture_take(60 s, 30 fps, seed 0))",
+                      make_gesture_take(60.0, 30.0, np.random.default_rng(0))))
+    frames, text = [], ""
+    for name, take in takes:
+        df = run(take, args.seeds)
+        df.insert(0, "take", name)
+        frames.append(df)
+        text += ("\n" if text else "") + to_markdown(df.drop(columns="take"), name)
+    pd.concat(frames).to_csv(args.out.with_suffix(".csv"), index=False)
     if SHARED_C3D.exists():
         text += "\n" + gapfill_validation() + "\n" + real_warp_check()
     args.out.write_text("# Marker-based alignment (benchmarks/eval_markers.py)\n\n" + text)

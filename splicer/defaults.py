@@ -125,6 +125,13 @@ WRIST_SMOOTH_S = SMOOTH_S
 WRIST_OFFSET_SMOOTH_S = 1.0 / 3.0
 #: Window of the map's local slope (the hands' tempo), seconds.
 WRIST_SLOPE_S = 0.5
+#: The wrist's refinement is left out for a side whose optical markers' noise makes up more
+#: than this share of the hand's motion relative to the forearm (:func:`splicer.align.wrist.noise_share`;
+#: 0.19.0).  Chosen on the tuning seeds 0-4 among 0.15, 0.2, 0.25 and 1/3 (benchmarks/HISTORY.md,
+#: 0.19.0): the zeggs take's shares are 0.004-0.03 (never left out); the synthetic speaker's
+#: 0.07-0.26 with the hands C3D and 0.17-0.42 with both takes C3D, where the refinement cost more
+#: than it gave (both C3D 0.77 -> 0.56 frames at 0.2; hands C3D 0.56 -> 0.58).
+WRIST_NOISE_SHARE_MAX = 0.2
 #: Median merge: frames blended each side of a jump.
 BLEND_WINDOW_FRAMES = 4
 #: Rate of the coarse guide pass of long takes, frames per second.

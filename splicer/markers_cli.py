@@ -175,13 +175,18 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
                 log.note(msg)
         hmk = resample_markers(_align_up(harm.markers, barm.markers.up), bt.fps)
         real = {"body": barm.report(bt), "hands": harm.report(ht)}
+        noise = {}
+        if barm.noise_sample() is not None:
+            noise["body"] = barm.noise_sample().points
+        if harm.noise_sample() is not None:
+            noise["hands"] = resample_markers(_align_up(harm.noise_sample(), barm.markers.up), bt.fps).points
         sm = SideMarkers(s, barm.markers, hmk, spaces, tuple(pins_from_config(cfg, s, spaces)), real,
-                         placed=("optical", "optical"))
+                         placed=("optical", "optical"), noise=noise)
         log.tick("markers")
         alignment = align_side(sm, opts, log)
         tm = time_map(alignment, sm, opts)
         # the wrist's refinement, as splice runs it (stages.transfer.refine_time_maps)
-        refined = refine_time_maps({s: SideResult(s, tm, sm, alignment)}, opts)[s]
+        refined = refine_time_maps({s: SideResult(s, tm, sm, alignment)}, opts, log)[s]
         tm = refined.hands_frame
         maps[s] = tm
         columns[s] = sorted({c for cols in list(harm.roles.roles.values()) + list(harm.roles.segments.values())

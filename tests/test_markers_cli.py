@@ -199,3 +199,33 @@ def test_splice_markers_runs_the_wrist_refinement_on_the_real_capture(shared_mot
         err[radius] = float(np.mean(np.abs(hold_ends(r.time_maps["right"]) - truth) * t.fps / 120.0))
         assert ("wrist_shift_frames" in r.report.to_dict()["sides"]["right"]) is (radius is None)
     assert err[None] < 0.9 * err[0.0], err  # measured 0.99 against 1.24
+
+
+def test_noisy_optical_markers_leave_the_wrist_refinement_out(session, monkeypatch):
+    """The markers' noise is estimated and reported; where it makes up more than
+    WRIST_NOISE_SHARE_MAX of the hand's motion in the forearm, the map stays as the passes made it."""
+    import splicer.defaults as D
+    from splicer.pipeline import splice
+
+    d, sep, hands, body = session
+    kw = dict(hands_markers=d / "hands.c3d", body_markers=d / "body.c3d")
+    r = splice(d / "body.bvh", d / "hands.bvh", **kw)
+    side = r.report.to_dict()["sides"]["left"]
+    noise = side["markers"]["body"]["noise"]
+    assert set(noise) == {"p1", "p2", "p3", "p4", "shoulder"}
+    assert 1.0 <= noise["p1"] <= 2.0 and noise["p3"] < noise["p1"]  # 1-2 mm drawn; p3 averages four markers
+    assert side["markers"]["hands"]["noise"]["p1"] < 0.05  # made without noise: the motion's own jerk leaves hundredths of a mm
+    shares = {s: v.extra["wrist_noise_share"] for s, v in r.sides.items()}
+    assert all(x > 0.0 for x in shares.values()) and min(shares.values()) < D.WRIST_NOISE_SHARE_MAX, shares
+    for s, v in r.sides.items():  # measured: left 0.35 (its hand moves little in the forearm), right 0.09
+        assert (v.wrist is None) == (shares[s] > D.WRIST_NOISE_SHARE_MAX)
+    assert sum("wrist's refinement left out" in w for w in r.report.warnings) == sum(
+        x > D.WRIST_NOISE_SHARE_MAX for x in shares.values())
+    monkeypatch.setattr(D, "WRIST_NOISE_SHARE_MAX", min(shares.values()) / 2)
+    left_out = splice(d / "body.bvh", d / "hands.bvh", **kw)
+    assert all(v.wrist is None and v.extra["wrist_noise_share"] == pytest.approx(shares[s], abs=1e-3)
+               for s, v in left_out.sides.items())
+    assert sum("wrist's refinement left out" in w for w in left_out.report.warnings) == len(left_out.sides)
+    off = splice(d / "body.bvh", d / "hands.bvh", wrist_radius_s=0.0, **kw)  # the stage switched off: the same maps
+    for s in off.sides:
+        np.testing.assert_array_equal(left_out.sides[s].hands_frame, off.sides[s].hands_frame)

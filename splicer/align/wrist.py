@@ -37,7 +37,7 @@ from numba import njit
 from ..transfer.sampling import sample_linear
 
 __all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "markers_compare", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
-           "WristFit", "WristEvidence", "refine_map", "rate_mismatch"]
+           "WristFit", "WristEvidence", "refine_map", "rate_mismatch", "noise_share"]
 
 #: Offsets are searched on a grid of this many common (body) frames.
 STEP_FRAMES = 0.25
@@ -431,3 +431,52 @@ def rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarr
     if not energy > 0:
         return float("nan")
     return float(np.mean(np.sum((vb - vh) ** 2, axis=1)) / energy)
+
+
+def noise_share(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float, smooth_s: float,
+                slope_s: float, body_noise: np.ndarray | None = None, hands_noise: np.ndarray | None = None) -> float:
+    """How much of the hand's motion relative to the forearm, as :func:`refine_map` reads it, is marker noise.
+
+    The refinement matches the rates of change of the hand's direction in the forearm's frame;
+    optical markers' noise reaches them (the frame spans markers a few centimetres apart).  With a
+    draw of each take's noise carried to these frames (:meth:`splicer.rig.marker_arm.MarkerArm.noise_sample`),
+    the noise's part of the rates is the change the draw makes to them::
+
+        share = (sum_q mean(dv_body_q^2) + sum_q mean((slope * dv_hands_q(c))^2)) / sum_q mean(v_body_q^2)
+
+    Parameters
+    ----------
+    body_points, hands_points, c, fps, smooth_s, slope_s
+        As :func:`refine_map` (``c`` finite).
+    body_noise, hands_noise : np.ndarray [shape like the points], optional
+        The noise draws; None: that take's markers carry none (a solved skeleton's).
+
+    Returns
+    -------
+    float
+        Unitless, >= 0 (0 without noise draws); ``inf`` when the body's hand does not move in its
+        forearm at all but noise is drawn, NaN with fewer than 3 frames.
+    """
+    c = np.asarray(c, dtype=np.float64)
+    if len(c) < 3 or len(hands_points) < 2:
+        return float("nan")
+    if body_noise is None and hands_noise is None:
+        return 0.0
+    if not np.isfinite(c).all():
+        raise ValueError("the map must be finite")
+
+    def rate(points):
+        return np.gradient(_smooth(hand_in_forearm(points), smooth_s * fps), axis=0)
+
+    vb = rate(body_points)
+    noise = 0.0
+    if body_noise is not None:
+        noise += float(np.sum(np.mean((rate(body_points + body_noise) - vb) ** 2, axis=0)))
+    if hands_noise is not None:
+        dv = rate(hands_points + hands_noise) - rate(hands_points)
+        slope = np.clip(_smooth(np.gradient(c), slope_s * fps), 0.0, None)
+        noise += float(np.sum(np.mean((slope[:, None] * sample_linear(dv, c)) ** 2, axis=0)))
+    signal = float(np.sum(np.mean(vb ** 2, axis=0)))
+    if not signal > 0:
+        return float("inf") if noise > 0 else 0.0
+    return noise / signal

@@ -9,7 +9,7 @@ forearm cluster of three markers or more, else by averaging each role's markers.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,6 +17,7 @@ from ..errors import RoleError
 from ..io.trajectories import Trajectories
 from .gapfill import GapFill, fill_gaps
 from .marker_roles import MarkerRoles, _parse_up, detect_marker_up, find_marker_roles
+from .marker_noise import marker_noise, noise_markers, role_noise
 from .markers import Markers
 from .segment_fit import rigid_markers
 
@@ -49,6 +50,10 @@ class MarkerArm:
     derivation : str
         ``"rigid segments"`` (:func:`splicer.rig.segment_fit.rigid_markers`) or ``"role averages"``
         (each role's markers averaged).
+    noise : dict
+        ``"p1".."p4"``, ``"shoulder"`` -> the white noise of that point, file units
+        (:func:`splicer.rig.marker_noise.role_noise` of the role's markers, averaged); with rigid
+        segments the same figure, an approximation (the fit spreads the markers' noise otherwise).
     """
 
     markers: Markers
@@ -56,12 +61,23 @@ class MarkerArm:
     gaps: GapFill
     notes: tuple
     derivation: str = "role averages"
+    noise: dict = field(default_factory=dict)
+
+    def noise_sample(self, seed: int = 0) -> Markers | None:
+        """A draw of white noise like this arm's (:attr:`noise`), shaped and timed as :attr:`markers`;
+        None when the noise is not known.  Carry it through the markers' own resampling."""
+        if not self.noise:
+            return None
+        m = self.markers
+        pts, sh = noise_markers(self.noise, m.n_frames, seed=seed)
+        return Markers(pts, sh, np.zeros(m.n_frames), m.up, m.fps, m.side)
 
     def report(self, traj: Trajectories) -> dict:
-        """JSON-ready summary: file, rate, set, role labels, up axis, filled ranges."""
+        """JSON-ready summary: file, rate, set, role labels, up axis, filled ranges, each point's noise (file units)."""
         return {"path": traj.source, "frames": traj.n_frames, "fps": traj.fps, "first_frame": traj.first_frame,
                 "units": traj.units, "marker_set": self.roles.marker_set, "roles": self.roles.labels(traj),
-                "derivation": self.derivation, "gaps_filled": [f.to_dict() for f in self.gaps.fills]}
+                "derivation": self.derivation, "gaps_filled": [f.to_dict() for f in self.gaps.fills],
+                "noise": {r: round(v, 3) for r, v in self.noise.items() if np.isfinite(v)}}
 
 
 def arm_from_trajectories(traj: Trajectories, side: str, *, mapping: dict | None = None,
@@ -115,6 +131,7 @@ def arm_from_trajectories(traj: Trajectories, side: str, *, mapping: dict | None
     if never:
         raise RoleError(f"{traj.source}: marker(s) {', '.join(never)} never seen; name others under 'markers:'")
     fitted = rigid_markers(filled, roles.roles, roles.segments) if rigid else None
+    noise = role_noise(marker_noise(traj.points), roles.roles)  # as recorded: gaps are left out
     if fitted is not None:
         by_role, derivation = fitted[0], "rigid segments"
     else:
@@ -132,7 +149,7 @@ def arm_from_trajectories(traj: Trajectories, side: str, *, mapping: dict | None
                          f"(from {how}); set 'markers: up:' in the constraints file if wrong")
     points, shoulder = _upright(points, axis, sign), _upright(shoulder, axis, sign)
     mk = Markers(points, shoulder, np.zeros(traj.n_frames), axis, traj.fps, side)
-    return MarkerArm(mk, roles, gaps, tuple(notes), derivation)
+    return MarkerArm(mk, roles, gaps, tuple(notes), derivation, noise)
 
 
 def on_frames(markers: Markers, n_frames: int, fps: float, *, what: str = "markers") -> tuple[Markers, tuple]:

@@ -35,6 +35,10 @@ class SideMarkers:
     placed : tuple of str
         How the body's and the hands' markers were placed (:func:`splicer.rig.markers.marker_placement`;
         ``"optical"`` for real markers): the wrist's refinement runs only where they are equal.
+    noise : dict
+        ``"body"``/``"hands"`` -> a draw of the optical markers' white noise, ``p1..p4`` shaped and
+        timed as :attr:`body` / :attr:`hands` (:meth:`splicer.rig.marker_arm.MarkerArm.noise_sample`,
+        carried through the same resampling), for a take aligned on real markers whose noise is known.
     """
 
     side: str
@@ -45,6 +49,7 @@ class SideMarkers:
     real: dict = field(default_factory=dict)  # issue 14: "body"/"hands" -> optical marker report
     hand_only: bool = False
     placed: tuple = ("", "")
+    noise: dict = field(default_factory=dict)
 
 
 def _align_up(markers, up_to: int):
@@ -83,7 +88,7 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     hmk = _align_up(arm_markers(hm, rig.hands.sides[side], rig.hands.up), rig.body.up)
     log.progress(f"{side}: markers", 1.0)
     # --- issue 14: real optical markers replace the virtual ones of the take that has them ---
-    real = {}
+    real, noise = {}, {}
     for take, traj, motion in (("body", inputs.body_markers, bm), ("hands", inputs.hands_markers, hm)):
         if traj is None:
             continue
@@ -98,6 +103,9 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
         for msg in arm.notes + notes:
             log.note(msg)
         real[take] = arm.report(traj)
+        drawn = arm.noise_sample()
+        if drawn is not None:  # every step below is linear: the noise as the alignment sees it
+            noise[take] = _align_up(on_frames(drawn, motion.n_frames, motion.fps)[0], rig.body.up)
         if take == "body":
             bmk = _align_up(mk, rig.body.up)
         else:
@@ -106,7 +114,8 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     pins = pins_from_config(inputs.config, side, inputs.spaces)
     placed = ("optical" if "body" in real else body_placed,
               "optical" if "hands" in real else marker_placement(hm.skeleton, harm))
-    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real, hand_only, placed)
+    noise = {t: (m if t == "body" else resample_markers(m, bm.fps)).points for t, m in noise.items()}
+    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real, hand_only, placed, noise)
     if side == rig.sides[-1]:  # the arm chains' rotations (the sides share the root and spine): not needed again
         bm.forget_rotations()
         hm.forget_rotations()

@@ -145,8 +145,8 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
     """
     from dataclasses import replace
 
-    from ..align.wrist import WristEvidence, markers_compare, refine_map
-    from ..defaults import WRIST_OFFSET_SMOOTH_S, WRIST_SLOPE_S, WRIST_SMOOTH_S
+    from ..align.wrist import WristEvidence, markers_compare, noise_share, refine_map
+    from ..defaults import WRIST_NOISE_SHARE_MAX, WRIST_OFFSET_SMOOTH_S, WRIST_SLOPE_S, WRIST_SMOOTH_S
     from ..transfer.timemap import monotone_pinned
 
     if opts.merge != "timemap" or not opts.wrist_radius_s > 0:
@@ -163,6 +163,17 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
             out[s] = r
             continue
         log.progress(f"{s}: wrist", 0.0)
+        noise = r.markers.noise
+        share = noise_share(body_pts, hands_pts, sp.hands_to_common(span), fps=sp.body_fps, smooth_s=WRIST_SMOOTH_S,
+                            slope_s=WRIST_SLOPE_S, body_noise=noise["body"][a:b + 1] if "body" in noise else None,
+                            hands_noise=noise.get("hands"))
+        if share > WRIST_NOISE_SHARE_MAX:  # optical markers too noisy for the hand's motion in this take
+            log.note(f"{s} side: the wrist's refinement left out: the optical markers' noise makes up {share:.0%} of the "
+                     f"hand's motion relative to the forearm (over {WRIST_NOISE_SHARE_MAX:.0%}); the time map stays as "
+                     "the passes made it")
+            out[s] = replace(r, extra={**r.extra, "wrist_noise_share": round(share, 3)})
+            log.progress(f"{s}: wrist", 1.0)
+            continue
         fit = refine_map(body_pts, hands_pts, sp.hands_to_common(span),
                          fps=sp.body_fps, radius_s=opts.wrist_radius_s, smooth_s=WRIST_SMOOTH_S,
                          offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
@@ -171,7 +182,8 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
         tm[a:b + 1] = new
         shift, sd = np.full(len(tm), np.nan), np.full(len(tm), np.nan)
         shift[a:b + 1], sd[a:b + 1] = np.abs(fit.offset) / sp.body_fps, fit.sd / sp.body_fps  # common frames: the body rate
-        out[s] = replace(r, hands_frame=tm, extra={**r.extra, "wrist_shift_frames": round(moved, 3)},
+        more = {"wrist_noise_share": round(share, 3)} if noise else {}
+        out[s] = replace(r, hands_frame=tm, extra={**r.extra, "wrist_shift_frames": round(moved, 3), **more},
                          wrist=WristEvidence(shift_s=shift, sd_s=sd))
         log.progress(f"{s}: wrist", 1.0)
     return out

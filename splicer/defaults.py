@@ -132,6 +132,10 @@ WRIST_SLOPE_S = 0.5
 #: 0.07-0.26 with the hands C3D and 0.17-0.42 with both takes C3D, where the refinement cost more
 #: than it gave (both C3D 0.77 -> 0.56 frames at 0.2; hands C3D 0.56 -> 0.58).
 WRIST_NOISE_SHARE_MAX = 0.2
+#: Rounds of the wrist's refinement, each from the map the last one left, where the markers carry
+#: no measured noise (optical markers: one).  0.19.0: two (tuning seeds 0-3, every scenario's mean
+#: error lower or equal, the imitation 0.017 -> 0.013 s and 0.029 -> 0.021 s; benchmarks/HISTORY.md).
+WRIST_ROUNDS = 2
 #: Median merge: frames blended each side of a jump.
 BLEND_WINDOW_FRAMES = 4
 #: Rate of the coarse guide pass of long takes, frames per second.

@@ -89,8 +89,11 @@ def test_stages_compose_like_splice(sample):
     sides = splicer.mark_coverage_edges(splicer.uncover_unsure_edges(splicer.estimate_risk(sides), opts))
     whole = splicer.splice(body, hands, options=opts)
     np.testing.assert_allclose(refined, whole.sides["right"].hands_frame)
-    # the wrist's refinement moves the map by a frame or so at most (its radius: 0.25 s = 15 hands frames)
-    assert 0 < np.nanmax(np.abs(refined - weighed)) <= 15.0
+    # the wrist's refinement moves the map by its radius at most each round (0.25 s = 15 hands frames;
+    # defaults.WRIST_ROUNDS rounds; measured 16.2 with two)
+    from splicer.defaults import WRIST_ROUNDS
+
+    assert 0 < np.nanmax(np.abs(refined - weighed)) <= 15.0 * WRIST_ROUNDS
     assert np.all(np.diff(refined[np.isfinite(refined)]) >= 0)
     for k in ("est_error_s", "confidence"):
         np.testing.assert_allclose(getattr(sides["right"].alignment.confidence, k),

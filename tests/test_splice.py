@@ -59,10 +59,11 @@ def test_identity_pair_recovers_identity_and_fingers(take, roles):
     err = quat_angle(r.motion.rotations[:, fj], take.rotations[:, fj])
     assert err.max() < 1e-4  # degrees (arccos near 1 resolves ~1e-6)
     # with it: its expected offset weighs the neighbours of the exact match too, and the hand's
-    # motion is not symmetric about each frame: within 0.05 frames (measured 0.046)
+    # motion is not symmetric about each frame: within 0.06 frames (measured 0.056 with two
+    # rounds, at 3 of 361 frames; 0.046 with one)
     r = splice(body, take, temperature_s=0.0)
     for side in ("left", "right"):
-        np.testing.assert_allclose(_frames(r, side), np.arange(n), atol=0.05)
+        np.testing.assert_allclose(_frames(r, side), np.arange(n), atol=0.06)
     # the default expected path: D1 is not quite symmetric (each cell turns the hands by its own
     # theta), so it strays a little where the arm is still; measured 0.05 frames at most, 0.006 on average
     r = splice(body, take)

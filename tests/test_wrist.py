@@ -223,6 +223,42 @@ def test_stage_holds_every_pin_moves_within_its_radius_and_is_better_on_the_samp
         assert np.all(np.diff(r.hands_frame) >= 0)
 
 
+def test_stage_rounds_start_where_the_last_left(weighed, monkeypatch):
+    """WRIST_ROUNDS rounds where the markers carry no measured noise: each round refines the map
+    the last one left, and the evidence the risk model reads is their summed offset and the last
+    round's spread; a side with a noise draw (optical markers) gets one round."""
+    import splicer.align.wrist as W
+    import splicer.defaults as D
+
+    calls = []
+    real = W.refine_map
+
+    def counting(body, hands, c, **kw):
+        calls.append(np.array(c))
+        return real(body, hands, c, **kw)
+
+    monkeypatch.setattr(W, "refine_map", counting)
+    monkeypatch.setattr(D, "WRIST_ROUNDS", 1)
+    one = splicer.refine_time_maps(weighed, SpliceOptions())
+    assert len(calls) == len(weighed)
+    calls.clear()
+    monkeypatch.setattr(D, "WRIST_ROUNDS", 2)
+    two = splicer.refine_time_maps(weighed, SpliceOptions())
+    assert len(calls) == 2 * len(weighed)
+    for k, s in enumerate(weighed):
+        sp, first = weighed[s].markers.spaces, calls[2 * k]
+        fit1 = real(weighed[s].markers.body.points[:len(first)], weighed[s].markers.hands.points, first,
+                    fps=sp.body_fps, radius_s=D.WRIST_RADIUS_S, smooth_s=D.WRIST_SMOOTH_S,
+                    offset_smooth_s=D.WRIST_OFFSET_SMOOTH_S, slope_s=D.WRIST_SLOPE_S)
+        np.testing.assert_array_equal(calls[2 * k + 1], fit1.refined)  # round two starts where round one left
+        assert not np.array_equal(two[s].hands_frame, one[s].hands_frame)
+    calls.clear()
+    noisy = {s: replace(r, markers=replace(r.markers, noise={"body": np.zeros_like(r.markers.body.points)}))
+             for s, r in weighed.items()}  # a (silent) noise draw: the markers are optical
+    splicer.refine_time_maps(noisy, SpliceOptions())
+    assert len(calls) == len(weighed)
+
+
 def test_turn_onto_recovers_a_rotation():
     rng = np.random.default_rng(3)
     a = rng.normal(size=(50, 3))

@@ -146,7 +146,7 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
     from dataclasses import replace
 
     from ..align.wrist import WristEvidence, markers_compare, noise_share, refine_map
-    from ..defaults import WRIST_NOISE_SHARE_MAX, WRIST_OFFSET_SMOOTH_S, WRIST_SLOPE_S, WRIST_SMOOTH_S
+    from ..defaults import WRIST_NOISE_SHARE_MAX, WRIST_OFFSET_SMOOTH_S, WRIST_ROUNDS, WRIST_SLOPE_S, WRIST_SMOOTH_S
     from ..transfer.timemap import monotone_pinned
 
     if opts.merge != "timemap" or not opts.wrist_radius_s > 0:
@@ -174,14 +174,18 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
             out[s] = replace(r, extra={**r.extra, "wrist_noise_share": round(share, 3)})
             log.progress(f"{s}: wrist", 1.0)
             continue
-        fit = refine_map(body_pts, hands_pts, sp.hands_to_common(span),
-                         fps=sp.body_fps, radius_s=opts.wrist_radius_s, smooth_s=WRIST_SMOOTH_S,
-                         offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
+        # a second round where the markers carry no measured noise: it reads the signal again from where the
+        # first moved the map (measured: noisy optical markers lose by it; benchmarks/HISTORY.md, 0.19.0)
+        c, offset = sp.hands_to_common(span), 0.0
+        for _ in range(WRIST_ROUNDS if not noise else 1):
+            fit = refine_map(body_pts, hands_pts, c, fps=sp.body_fps, radius_s=opts.wrist_radius_s,
+                             smooth_s=WRIST_SMOOTH_S, offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
+            c, offset = fit.refined, offset + fit.offset
         new = monotone_pinned(sp.common_to_hands(fit.refined), last=sp.n_hands - 1, pins=_span_pins(r.markers.pins, a, b))
         moved = float(np.mean(np.abs(new - span)))
         tm[a:b + 1] = new
         shift, sd = np.full(len(tm), np.nan), np.full(len(tm), np.nan)
-        shift[a:b + 1], sd[a:b + 1] = np.abs(fit.offset) / sp.body_fps, fit.sd / sp.body_fps  # common frames: the body rate
+        shift[a:b + 1], sd[a:b + 1] = np.abs(offset) / sp.body_fps, fit.sd / sp.body_fps  # common frames: the body rate
         more = {"wrist_noise_share": round(share, 3)} if noise else {}
         out[s] = replace(r, hands_frame=tm, extra={**r.extra, "wrist_shift_frames": round(moved, 3), **more},
                          wrist=WristEvidence(shift_s=shift, sd_s=sd))

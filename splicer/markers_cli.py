@@ -175,11 +175,11 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
                 log.note(msg)
         hmk = resample_markers(_align_up(harm.markers, barm.markers.up), bt.fps)
         real = {"body": barm.report(bt), "hands": harm.report(ht)}
-        noise = {}
-        if barm.noise_sample() is not None:
-            noise["body"] = barm.noise_sample().points
-        if harm.noise_sample() is not None:
-            noise["hands"] = resample_markers(_align_up(harm.noise_sample(), barm.markers.up), bt.fps).points
+        noise, bnoise, hnoise = {}, barm.noise_sample(), harm.noise_sample()  # each drawn once
+        if bnoise is not None:
+            noise["body"] = bnoise.points
+        if hnoise is not None:  # carried as the hands' markers are
+            noise["hands"] = resample_markers(_align_up(hnoise, barm.markers.up), bt.fps).points
         sm = SideMarkers(s, barm.markers, hmk, spaces, tuple(pins_from_config(cfg, s, spaces)), real,
                          placed=("optical", "optical"), noise=noise)
         log.tick("markers")

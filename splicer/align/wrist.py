@@ -337,6 +337,16 @@ def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
     return gaussian_filter1d(x, sigma, axis=0, mode="nearest") if sigma > 0 and len(x) > 1 else x.copy()
 
 
+def _direction(points: np.ndarray, smooth_s: float, fps: float) -> np.ndarray:
+    """The hand's direction in the forearm's frame (:func:`hand_in_forearm`), smoothed over ``smooth_s``."""
+    return _smooth(hand_in_forearm(points), smooth_s * fps)
+
+
+def _tempo(c: np.ndarray, slope_s: float, fps: float) -> np.ndarray:
+    """The map's local slope (the hands' tempo), smoothed over ``slope_s``: the slope, not the map, so true to the ends."""
+    return np.clip(_smooth(np.gradient(c), slope_s * fps), 0.0, None)
+
+
 @dataclass(frozen=True, eq=False)
 class WristEvidence:
     """A side's wrist refinement per body frame, seconds (NaN where it did not run): what the
@@ -382,11 +392,10 @@ def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray,
         return WristFit(c.copy(), np.zeros(n), np.zeros(n))
     if not np.isfinite(c).all():
         raise ValueError("the map must be finite over the frames refined")
-    xb = _smooth(hand_in_forearm(body_points), smooth_s * fps)
-    xh = _smooth(hand_in_forearm(hands_points), smooth_s * fps)
+    xb, xh = _direction(body_points, smooth_s, fps), _direction(hands_points, smooth_s, fps)
     xh = xh @ turn_onto(sample_linear(xh, c), xb).T  # markers placed a little differently on the two rigs
     vb, vh = np.gradient(xb, axis=0), np.gradient(xh, axis=0)
-    slope = np.clip(_smooth(np.gradient(c), slope_s * fps), 0.0, None)  # the slope smoothed, not the map: true to the ends
+    slope = _tempo(c, slope_s, fps)
     radius = radius_s * fps
     offsets = np.arange(-np.floor(radius / STEP_FRAMES), np.floor(radius / STEP_FRAMES) + 1) * STEP_FRAMES
     e = offset_costs(vb, vh, c, slope, offsets)
@@ -423,8 +432,8 @@ def rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarr
         return float("nan")
     if not np.isfinite(c).all():
         raise ValueError("the map must be finite")
-    xb = _smooth(hand_in_forearm(body_points), smooth_s * fps)
-    xh = sample_linear(_smooth(hand_in_forearm(hands_points), smooth_s * fps), c)
+    xb = _direction(body_points, smooth_s, fps)
+    xh = sample_linear(_direction(hands_points, smooth_s, fps), c)
     xh = xh @ turn_onto(xh, xb).T
     vb, vh = np.gradient(xb, axis=0), np.gradient(xh, axis=0)
     energy = float(np.mean(np.sum(vb ** 2, axis=1)))
@@ -466,7 +475,7 @@ def noise_share(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray
         raise ValueError("the map must be finite")
 
     def rate(points):
-        return np.gradient(_smooth(hand_in_forearm(points), smooth_s * fps), axis=0)
+        return np.gradient(_direction(points, smooth_s, fps), axis=0)
 
     vb = rate(body_points)
     noise = 0.0
@@ -474,7 +483,7 @@ def noise_share(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray
         noise += float(np.sum(np.mean((rate(body_points + body_noise) - vb) ** 2, axis=0)))
     if hands_noise is not None:
         dv = rate(hands_points + hands_noise) - rate(hands_points)
-        slope = np.clip(_smooth(np.gradient(c), slope_s * fps), 0.0, None)
+        slope = _tempo(c, slope_s, fps)
         noise += float(np.sum(np.mean((slope[:, None] * sample_linear(dv, c)) ** 2, axis=0)))
     signal = float(np.sum(np.mean(vb ** 2, axis=0)))
     if not signal > 0:

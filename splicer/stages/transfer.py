@@ -163,8 +163,8 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
             out[s] = r
             continue
         log.progress(f"{s}: wrist", 0.0)
-        noise = r.markers.noise
-        share = noise_share(body_pts, hands_pts, sp.hands_to_common(span), fps=sp.body_fps, smooth_s=WRIST_SMOOTH_S,
+        noise, c = r.markers.noise, sp.hands_to_common(span)
+        share = noise_share(body_pts, hands_pts, c, fps=sp.body_fps, smooth_s=WRIST_SMOOTH_S,
                             slope_s=WRIST_SLOPE_S, body_noise=noise["body"][a:b + 1] if "body" in noise else None,
                             hands_noise=noise.get("hands"))
         if share > WRIST_NOISE_SHARE_MAX:  # optical markers too noisy for the hand's motion in this take
@@ -176,7 +176,7 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
             continue
         # a second round where the markers carry no measured noise: it reads the signal again from where the
         # first moved the map (measured: noisy optical markers lose by it; benchmarks/HISTORY.md, 0.19.0)
-        c, offset = sp.hands_to_common(span), 0.0
+        offset = 0.0
         for _ in range(WRIST_ROUNDS if not noise else 1):
             fit = refine_map(body_pts, hands_pts, c, fps=sp.body_fps, radius_s=opts.wrist_radius_s,
                              smooth_s=WRIST_SMOOTH_S, offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)

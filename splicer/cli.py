@@ -98,8 +98,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ends", choices=("auto", "open", "fixed"), default=None,
                    help="open: find where the takes overlap (the hands take may start early, stop late or cover part "
                         "of the body); fixed: first frames match, last frames match (the paper); auto (default): open, "
-                        "but end to end when the takes are found to start and end together or the overlap found is "
-                        "implausibly short (with a warning)")
+                        "but end to end when the takes are found to start and end together, when the hands material "
+                        "the open ends leave continues the performance (slower hands near an end), or when the overlap "
+                        "found is implausibly short (with a note)")
     p.add_argument("--offset", type=float, default=None, metavar="SECONDS",
                    help="open ends: body frame 0 shows this hands time (a starting guess, e.g. from timecode)")
     p.add_argument("--noise-ratio", type=_noise_ratio, default="auto", metavar="R",

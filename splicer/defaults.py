@@ -145,6 +145,22 @@ COARSE_ABOVE_S = 120.0
 #: Open ends: a body frame left without hands material costs this quantile of the phase
 #: metric D1 over a sample of all frame pairs (ALGORITHM.md section 9).
 UNCOVERED_QUANTILE = 0.1
+#: ends="auto": an open-ended pass 1 that covers the whole body but leaves hands material at an
+#: end (more than a second) is aligned end to end when that material continues the performance:
+#: the last (first) CLOSE_ENDS_S seconds of body frames re-aligned with the end fixed at the
+#: hands take's last (first) frame cost, per cell, less than CLOSE_ENDS_EXCESS of the way from
+#: the open path's cost to the cost of unrelated material (the uncovered penalty)
+#: (:func:`splicer.align.openend.close_end`).  A hands take running slower than the body near an
+#: end leaves real material behind (the open end is free); a calibration pose or other motion
+#: costs like unrelated material.  Tuning seeds 0-3, every scenario, both takes: material that
+#: continues the performance 0.08-0.37 (one 0.68, in a second opinion's pass), extra material
+#: 0.56-1.9 (benchmarks/HISTORY.md, 0.20.0).
+CLOSE_ENDS_S = 2.0
+CLOSE_ENDS_EXCESS = 0.45
+#: ... and only material up to this long (seconds of hands time, at the body's rate): closed into
+#: CLOSE_ENDS_S of body frames, longer material would need the hands performer over five times
+#: slower than the body there; a longer hands take is extra material, and the block stays small.
+CLOSE_ENDS_MAX_S = 10.0
 #: Where the hands' material starts or stops inside the body (an uncovered range begins or
 #: ends), the exact frame is located only to within a few frames: covered body frames within
 #: this many seconds of an uncovered range have an estimated error of at least this much, so

@@ -1,7 +1,8 @@
 """Open-ended alignment helpers (beyond the paper, ALGORITHM.md section 9).
 
-The penalty for body frames no hands material covers, and the coarse band a coarse
-open-ended pass hands to the full-rate pass.
+The penalty for body frames no hands material covers, the coarse band a coarse
+open-ended pass hands to the full-rate pass, and an open path's end re-aligned with that end
+fixed (:func:`close_end`: does the material the open end left continue the performance?).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from ..errors import BandError
 from .costs import PhaseFeatures, d1_cost
 
 __all__ = ["UNCOVERED_QUANTILE", "OPEN_HORIZONTAL_WEIGHT", "OPEN_COARSE_FPS", "MAX_COARSE_CELLS",
-           "uncovered_penalty", "coarse_rate", "offset_band", "d1_sample"]
+           "uncovered_penalty", "coarse_rate", "offset_band", "d1_sample", "EndClosure", "close_end"]
 
 #: Default quantile of the local costs used as the per-row penalty of uncovered body frames.
 from ..defaults import UNCOVERED_QUANTILE  # noqa: E402  (one place of defaults)
@@ -179,3 +180,108 @@ def d1_sample(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window
     band = Band(n=b.n_frames, m=h.n_frames, width=math.inf, lo=np.zeros(b.n_frames, np.int64),
                 hi=np.full(b.n_frames, h.n_frames - 1, np.int64))
     return d1_cost(b, h, theta=theta, position_weight=position_weight)(band, 0, b.n_frames)
+
+
+@dataclasses.dataclass(frozen=True)
+class EndClosure:
+    """An open-ended path's end re-aligned with that end fixed at the hands take's first or last frame.
+
+    Attributes
+    ----------
+    end : {"head", "tail"}
+    path : np.ndarray [shape=(K, 2), dtype=int64]
+        The fixed-end path over the re-aligned block, in the pass's frames: from ``(0, 0)`` to
+        the open path's cell ``rows`` body frames in (head), or from that cell to
+        ``(n - 1, m - 1)`` (tail).
+    open_cost, closed_cost : float
+        Mean local cost per cell along the open path's part of the block and along ``path``
+        (the pass's own local cost, every cell counted once).
+    left_hands : int
+        Hands frames the open path leaves at this end.
+    """
+
+    end: str
+    path: np.ndarray
+    open_cost: float
+    closed_cost: float
+    left_hands: int
+
+    def excess(self, unrelated: float) -> float:
+        """How much of the way from the open path's cost to ``unrelated`` (the cost of unrelated
+        material, e.g. the pass's uncovered penalty) the closed end's cost lies: about 0 where the
+        material left at this end matches like the rest, about 1 where it is unrelated; ``inf``
+        when the open path already costs as much as unrelated material (the test says nothing)."""
+        room = unrelated - self.open_cost
+        if not room > 0.0:
+            return math.inf
+        return (self.closed_cost - self.open_cost) / room
+
+
+def _block_band(n: int, m: int, rows: tuple, cols: tuple) -> Band:
+    """Cells ``rows x cols`` (inclusive ranges) as a band of the ``n x m`` matrix (the other rows
+    one cell wide, so that the band stays connected); for computing that block's local costs."""
+    (r0, r1), (c0, c1) = rows, cols
+    lo = np.full(n, c0, dtype=np.int64)
+    hi = np.full(n, c0, dtype=np.int64)
+    hi[r0:r1 + 1] = c1
+    lo[r1 + 1:] = c1
+    hi[r1 + 1:] = c1
+    return Band(n, m, 1.0, lo, hi, open_begin=True, open_end=True)
+
+
+def close_end(path: np.ndarray, local_cost, n: int, m: int, end: str, rows: int) -> EndClosure:
+    """Re-align the first (``end="head"``) or last (``"tail"``) ``rows`` body frames of an
+    open-ended path with fixed ends: the block from the path's cell ``rows`` body frames in to the
+    corner ``(0, 0)`` or ``(n - 1, m - 1)``, with the pass's own local costs.
+
+    A hands take that runs slower than the body near an end leaves real material past the open
+    path's end (the open end is free, so any cost at all makes the path stop short); unrelated
+    material (a calibration pose, other motion) costs about as much as any unrelated pair of
+    frames.  :meth:`EndClosure.excess` tells the two apart.
+
+    Parameters
+    ----------
+    path : np.ndarray [shape=(K, 2)]
+        The open-ended path (body frame, hands frame), monotone.
+    local_cost : callable
+        ``(band, i0, i1) -> rows of local costs`` (a :class:`splicer.passes.PassResult`'s ``local_cost``).
+    n, m : int
+        The pass's body and hands frame counts.
+    end : {"head", "tail"}
+    rows : int
+        Body frames of the path re-aligned (at least 1).
+
+    Returns
+    -------
+    EndClosure
+
+    Examples
+    --------
+    >>> cost = lambda band, i0, i1: np.ones((i1 - i0, int(np.max(band.hi - band.lo + 1))))
+    >>> open_path = np.array([[0, 3], [1, 4], [2, 5], [3, 6]])
+    >>> c = close_end(open_path, cost, 4, 7, "head", 2)
+    >>> c.path.tolist(), c.left_hands, c.open_cost, c.closed_cost
+    ([[0, 0], [0, 1], [0, 2], [0, 3], [1, 4], [2, 5]], 3, 1.0, 1.0)
+    """
+    if end not in ("head", "tail"):
+        raise ValueError(f"end must be 'head' or 'tail', got {end!r}")
+    from .dtw import dtw
+    from .band import full_band
+
+    p = np.asarray(path, dtype=np.int64)
+    rows = max(1, int(rows))
+    if end == "tail":
+        k = int(np.searchsorted(p[:, 0], max(int(p[0, 0]), int(p[-1, 0]) - rows)))
+        (r0, c0), (r1, c1) = p[k], (n - 1, m - 1)
+        part, left = p[k:], int(m - 1 - p[-1, 1])
+    else:
+        k = int(np.searchsorted(p[:, 0], min(int(p[-1, 0]), int(p[0, 0]) + rows), side="right")) - 1
+        (r0, c0), (r1, c1) = (0, 0), p[k]
+        part, left = p[:k + 1], int(p[0, 1])
+    r0, c0, r1, c1 = int(r0), int(c0), int(r1), int(c1)
+    block = np.asarray(local_cost(_block_band(n, m, (r0, r1), (c0, c1)), r0, r1 + 1), dtype=np.float64)
+    block = block[:, :c1 - c0 + 1]
+    res = dtw(block, full_band(r1 - r0 + 1, c1 - c0 + 1, open_begin=False, open_end=False))
+    open_cost = float(np.mean(block[part[:, 0] - r0, part[:, 1] - c0]))
+    closed = res.path + np.array([r0, c0])
+    return EndClosure(end, closed, open_cost, float(res.cost) / len(res.path), left)

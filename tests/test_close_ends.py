@@ -1,0 +1,152 @@
+"""Open ends that stop short of real material (0.20.0): an open-ended path's end re-aligned with the
+end fixed at the hands take's corner (:func:`splicer.align.openend.close_end`), checked against a
+plain DTW over the block, on material that continues the performance and on unrelated material;
+and the stage rule that turns such a pair end to end (:func:`splicer.stages.align._close_ends`)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from splicer import defaults as D
+from splicer.align.openend import EndClosure, close_end
+from splicer.align.passes import pass1, warp_markers
+from splicer.stages.align import _close_ends
+
+from test_openend import _cat, _cut, ref_open_dtw, sample_markers  # noqa: F401  (fixture)
+
+
+def _matrix_cost(C):
+    """A pass's ``local_cost`` over a full cost matrix (rows of the band, padded with inf)."""
+    def cost(band, i0, i1):
+        w = int(np.max(band.hi - band.lo + 1))
+        out = np.full((i1 - i0, w), np.inf)
+        for r, i in enumerate(range(i0, i1)):
+            row = C[i, band.lo[i]:band.hi[i] + 1]
+            out[r, :len(row)] = row
+        return out
+    return cost
+
+
+@pytest.mark.parametrize("end", ["head", "tail"])
+def test_close_end_is_a_plain_dtw_over_the_block(end):
+    rng = np.random.default_rng(7)
+    n, m = 30, 45
+    C = rng.uniform(0.0, 1.0, size=(n, m))
+    # an open path that covers every body frame but leaves 6 hands frames at the head and 8 at the tail
+    js = np.round(np.linspace(6, m - 9, n)).astype(int)
+    path = np.stack([np.arange(n), js], axis=1)
+    c = close_end(path, _matrix_cost(C), n, m, end, rows=10)
+    if end == "tail":
+        r0, c0 = path[n - 1 - 10]
+        block = C[r0:, c0:]
+        part = path[n - 1 - 10:]
+        assert c.left_hands == 8 and tuple(c.path[0]) == (r0, c0) and tuple(c.path[-1]) == (n - 1, m - 1)
+    else:
+        r1, c1 = path[10]
+        block = C[:r1 + 1, :c1 + 1]
+        r0 = c0 = 0
+        part = path[:11]
+        assert c.left_hands == 6 and tuple(c.path[0]) == (0, 0) and tuple(c.path[-1]) == (r1, c1)
+    cost, ref_path = ref_open_dtw(block, np.ones(block.shape, bool), False, False, 0.0)[:2]
+    np.testing.assert_array_equal(c.path - [r0, c0], ref_path)
+    assert c.closed_cost == pytest.approx(cost / len(ref_path))
+    assert c.open_cost == pytest.approx(np.mean([C[i, j] for i, j in part]))
+
+
+def test_excess_worked_answers():
+    c = EndClosure("tail", np.zeros((1, 2), np.int64), open_cost=2.0, closed_cost=3.0, left_hands=5)
+    assert c.excess(6.0) == pytest.approx(0.25)     # a quarter of the way from 2 to unrelated material's 6
+    assert c.excess(2.0) == np.inf                  # the open path already costs as much: no answer
+    assert EndClosure("head", c.path, 2.0, 1.5, 5).excess(4.0) == pytest.approx(-0.25)
+    with pytest.raises(ValueError, match="head"):
+        close_end(np.zeros((2, 2), np.int64), None, 2, 2, "middle", 1)
+
+
+def _slow_tail(body, slow_s=3.0, factor=3.0):
+    """Hands frames of a take that shows ``body`` in time, then its last ``slow_s`` seconds
+    ``factor`` times slower: the body frame each hands frame shows."""
+    n, fps = body.n_frames, body.fps
+    k = int(slow_s * fps)
+    head = np.arange(n - k, dtype=float)
+    tail = np.linspace(n - k, n - 1, int(k * factor))
+    return np.concatenate([head, tail])
+
+
+@pytest.fixture
+def slow_tail(sample_markers):
+    """Hands = the body with its last 3 s three times slower; an open path along the truth that
+    stops 5 s of hands material short of the corner (what the free open end does with a slower
+    tail); the same take followed by 5 s of the other arm's motion instead; pass 1 over each."""
+    full, other = sample_markers
+    body = _cut(full, 140, 556)
+    n, fps = body.n_frames, body.fps
+    shows = _slow_tail(body)
+    hands = warp_markers(body, shows)
+    m = hands.n_frames
+    truth = np.interp(np.arange(n), shows, np.arange(m))        # hands frame of each body frame
+    short = int(5 * fps)                                          # the open path stops here
+    keep = truth < m - 1 - short
+    path = np.stack([np.arange(n)[keep], np.round(truth[keep]).astype(int)], axis=1)
+    path = np.concatenate([path, [[n - 1, path[-1, 1] + 1]]])     # the last body frame on the next hands frame
+    unrelated = _cat([_cut(hands, 0, int(path[-1, 1]) + 1), _cut(other, 0, short)])
+    return SimpleNamespace(n=n, m=m, fps=fps, truth=truth, short=short, path=path, mu=unrelated.n_frames,
+                           p=pass1(body, hands, width=30.0, ends="open"),
+                           pu=pass1(body, unrelated, width=30.0, ends="open"))
+
+
+def test_a_slower_tail_is_material_that_continues_the_performance(slow_tail):
+    """The slower tail closes at a small cost, along the truth; the other arm's motion costs like
+    unrelated material."""
+    t = slow_tail
+    rows = int(D.CLOSE_ENDS_S * t.fps)
+    c = close_end(t.path, t.p.local_cost, t.n, t.m, "tail", rows)
+    assert c.left_hands >= t.short
+    assert c.excess(t.p.uncovered_cost) < 0.2
+    body_rows = np.unique(c.path[:, 0])
+    mid = np.array([c.path[c.path[:, 0] == i, 1].mean() for i in body_rows])  # several hands frames a row
+    err = np.abs(mid - t.truth[body_rows])
+    assert np.median(err) < 3.0 and tuple(c.path[-1]) == (t.n - 1, t.m - 1)  # 3 hands frames: one body frame here
+    cu = close_end(t.path, t.pu.local_cost, t.n, t.mu, "tail", rows)
+    assert cu.excess(t.pu.uncovered_cost) > 2 * D.CLOSE_ENDS_EXCESS
+
+
+def test_the_stage_closes_only_ends_whose_material_continues(slow_tail):
+    t = slow_tail
+    fake = SimpleNamespace(path=t.path, local_cost=t.p.local_cost, uncovered_cost=t.p.uncovered_cost)
+    guide, note = _close_ends(fake, t.n, t.m, t.fps)
+    assert tuple(guide[0]) == (0, 0) and tuple(guide[-1]) == (t.n - 1, t.m - 1)
+    assert np.all(np.diff(guide, axis=0) >= 0) and np.all(np.abs(np.diff(guide, axis=0)).sum(axis=1) >= 1)
+    assert "at the end" in note and "--ends open" in note
+    # body frames left uncovered: the hands take is shorter, not slower; nothing to close
+    fake_short = SimpleNamespace(path=t.path[t.path[:, 0] < t.n - 2 * t.fps], local_cost=t.p.local_cost,
+                                 uncovered_cost=t.p.uncovered_cost)
+    assert _close_ends(fake_short, t.n, t.m, t.fps) == (None, None)
+    # unrelated material past the end: left open
+    fake = SimpleNamespace(path=t.path, local_cost=t.pu.local_cost, uncovered_cost=t.pu.uncovered_cost)
+    assert _close_ends(fake, t.n, t.mu, t.fps) == (None, None)
+    # more material than CLOSE_ENDS_MAX_S: not a slower end but extra material, left open
+    fake = SimpleNamespace(path=t.path, local_cost=t.p.local_cost, uncovered_cost=t.p.uncovered_cost)
+    assert _close_ends(fake, t.n, t.n + int(D.CLOSE_ENDS_MAX_S * t.fps) + 10, t.fps) == (None, None)
+
+
+def test_a_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end():
+    """The synthetic *speed + imitation* pair of tuning seed 1, whose open end
+    stopped 7.7 s of hands material short (errors up to 1 s over the body's last 2 s, 0.19.0): now
+    end to end, with a note, and the last 2 s within 0.1 s."""
+    from splicer import splice
+    from splicer.evaluation.scenario_types import alignment_error_s
+    from splicer.evaluation.scenarios import make_scenario, scenario
+    from splicer.evaluation.synth import make_gesture_take
+
+    take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
+    sep = make_scenario(take, scenario("speed+imitation"), rng=np.random.default_rng(1))
+    r = splice(sep.body, sep.hands)
+    assert any("left hands material that matches the performance" in w for w in r.report["warnings"])
+    k = int(2 * sep.body.fps)
+    for s, v in r.sides.items():
+        assert r.report["sides"][s]["ends"] == "fixed"
+        e = alignment_error_s(sep, v.hands_frame)
+        assert np.nanmean(e[-k:]) < 0.1                         # 0.19.0: 0.57 and 0.66 s

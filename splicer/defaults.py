@@ -87,6 +87,16 @@ DEAD_ZONE = 0.01
 #: D1's sign ramp: beyond the dead zone the sign rises linearly to 1 over this share of the
 #: motion's RMS velocity (acceleration), so D1 is continuous in the input; 0 is the paper's step.
 SIGN_RAMP = 0.03
+#: ... and in a noisy pair's pass 1 with fixed ends (noise matching smoothed the markers: a second
+#: performance), this share: the arm noise's small velocities then count as little motion, not as
+#: a full sign, so a rest between gestures no longer matches the next gesture's onset.  Tuning
+#: seeds 0-3 (the imitation and its combinations with speed changes and pauses, both takes):
+#: 0.03 / 0.15 / 0.3 / 0.5 with fixed ends only -> synthetic *speed + imitation* 0.040 / - /
+#: 0.029 / 0.028 s, imitation 0.021 / - / 0.017 / 0.015 s, 17 and 19 of 40 runs better, 1 and 0
+#: worse; open-ended passes too (0.15, 0.3) made *all* worse (zeggs 0.037 -> 0.098 / 0.092 s),
+#: so they keep SIGN_RAMP, and so do optical markers, whose measured white noise the wider ramp
+#: served worse (synthetic speaker, hands C3D: 0.52 -> 0.55 frames) (benchmarks/HISTORY.md, 0.20.0).
+SIGN_RAMP_NOISY = 0.5
 #: Pass 1's time map is the expected path over the paths near the best one, each weighted by
 #: exp(-cost / (PASS1_TEMPERATURE_S x body fps)) (:mod:`splicer.align.posterior`): a path that
 #: costs one D1 unit more per body frame for this many seconds is e times less likely (24 D1

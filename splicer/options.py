@@ -31,6 +31,7 @@ class SpliceOptions:
     smooth_s: float = D.SMOOTH_S  # marker smoothing before derivatives, seconds
     dead_zone: float = D.DEAD_ZONE  # sign dead zone, fraction of the motion's RMS speed
     sign_ramp: float = D.SIGN_RAMP  # the sign rises to 1 over this share of the RMS speed past the dead zone; 0 = step
+    sign_ramp_noisy: float = D.SIGN_RAMP_NOISY  # the same in pass 1 with fixed ends where noise matching smoothed the pair (a second performance; not optical markers); sign_ramp's value: no difference
     temperature_s: float = D.PASS1_TEMPERATURE_S  # pass 1: a path costing 1 D1 unit more per frame for this long is e times less likely; 0 = the best path alone
     posterior_radius_s: float = D.POSTERIOR_RADIUS_S  # pass 1: hands time each side of the best path weighed, seconds
     noise_ratio: float | str | None = "auto"  # "auto": when one take's signs flip over NOISE_TRIGGER times as often, smooth both until within NOISE_RATIO; a number R: whenever over R, until within R; None: off
@@ -64,7 +65,7 @@ _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off"), "pass1_arms": ("both", "each"),
             "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "auto", "open", "fixed")}
-_NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "sign_ramp", "temperature_s",
+_NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "sign_ramp", "sign_ramp_noisy", "temperature_s",
                 "posterior_radius_s", "timemap_sigma_s", "tempo_var_per_s", "wrist_radius_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
                 "coarse_above_s", "unsure_edge_s", "unmatched_edge_s")
 

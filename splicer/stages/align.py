@@ -278,6 +278,9 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
         osm = other_smooth[k] if k < len(other_smooth) else smooth_s
         extra.append((o, osm, o_fixed, o_open))
 
+    # a second performance's noise (not optical markers' measured noise: measured worse there)
+    soft = noisy and not markers.noise and not any(o.noise for o in others)
+
     def run_pass1(mode: str, guide_path=None):
         open_ends = mode == "open"
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
@@ -285,7 +288,8 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
         w1, w2 = pass_widths(opts.band1, opts.band2, n=n, fps=fps, open_ends=open_ends, guided=guided)
         arms = _other_arms(extra, open_ends)
         p = pass1(bmk, hmk, width=w1, constraints=cons, smooth_s=smooth_s, dead_zone=opts.dead_zone,
-                  sign_ramp=opts.sign_ramp, position_weight=pos_open if open_ends else pos_fixed,
+                  sign_ramp=opts.sign_ramp_noisy if soft and not open_ends else opts.sign_ramp,
+                  position_weight=pos_open if open_ends else pos_fixed,
                   theta=opts.theta, ends=mode, offset_s=offset_s if open_ends else None,
                   uncovered_quantile=opts.uncovered_quantile,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),

@@ -15,19 +15,13 @@ from splicer.align.openend import EndClosure, close_end
 from splicer.align.passes import pass1, warp_markers
 from splicer.stages.align import _close_ends
 
+from test_dtw import as_callable
 from test_openend import _cat, _cut, ref_open_dtw, sample_markers  # noqa: F401  (fixture)
 
 
 def _matrix_cost(C):
-    """A pass's ``local_cost`` over a full cost matrix (rows of the band, padded with inf)."""
-    def cost(band, i0, i1):
-        w = int(np.max(band.hi - band.lo + 1))
-        out = np.full((i1 - i0, w), np.inf)
-        for r, i in enumerate(range(i0, i1)):
-            row = C[i, band.lo[i]:band.hi[i] + 1]
-            out[r, :len(row)] = row
-        return out
-    return cost
+    """A pass's ``local_cost`` ``(band, i0, i1)`` over a full cost matrix."""
+    return lambda band, i0, i1: as_callable(C, band)(i0, i1)
 
 
 @pytest.mark.parametrize("end", ["head", "tail"])

@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from .band import Band, _as_constraints, _trim
+from .band import Band, _as_constraints, _trim, full_band
+from .dtw import dtw
 from ..errors import BandError
 from .costs import PhaseFeatures, d1_cost
 
@@ -265,9 +266,6 @@ def close_end(path: np.ndarray, local_cost, n: int, m: int, end: str, rows: int)
     """
     if end not in ("head", "tail"):
         raise ValueError(f"end must be 'head' or 'tail', got {end!r}")
-    from .dtw import dtw
-    from .band import full_band
-
     p = np.asarray(path, dtype=np.int64)
     rows = max(1, int(rows))
     if end == "tail":

@@ -121,9 +121,13 @@ def test_the_stage_closes_only_ends_whose_material_continues(slow_tail):
     # unrelated material past the end: left open
     fake = SimpleNamespace(path=t.path, local_cost=t.pu.local_cost, uncovered_cost=t.pu.uncovered_cost)
     assert _close_ends(fake, t.n, t.mu, t.fps) == (None, None)
-    # more material than CLOSE_ENDS_MAX_S: not a slower end but extra material, left open
-    fake = SimpleNamespace(path=t.path, local_cost=t.p.local_cost, uncovered_cost=t.p.uncovered_cost)
-    assert _close_ends(fake, t.n, t.n + int(D.CLOSE_ENDS_MAX_S * t.fps) + 10, t.fps) == (None, None)
+    # more material than CLOSE_ENDS_MAX_S past the path's end: not a slower end but extra material, left
+    # open before anything is aligned (the costs are never asked for columns past the real take's)
+    def never(*a):
+        raise AssertionError("costs asked for")
+
+    fake = SimpleNamespace(path=t.path, local_cost=never, uncovered_cost=t.p.uncovered_cost)
+    assert _close_ends(fake, t.n, int(t.path[-1, 1]) + 1 + int(D.CLOSE_ENDS_MAX_S * t.fps) + 10, t.fps) == (None, None)
 
 
 def test_a_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end():

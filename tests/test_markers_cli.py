@@ -179,8 +179,10 @@ def test_usage_errors_are_one_line(tmp_path, capsys, args, words):
 def test_splice_markers_runs_the_wrist_refinement_on_the_real_capture(shared_motions):
     """The shared Vicon capture aligned to itself re-timed by a known smooth warp (as
     benchmarks/eval_markers.py's real check): the wrist's refinement runs in ``splice-markers`` as
-    in ``splice`` (both takes optical: placed alike) and brings the mean error from 1.24 to 0.99
-    body frames (measured, 0.17.0)."""
+    in ``splice`` (both takes optical: placed alike) and brings the mean error from 1.24 to 0.86
+    body frames (measured, 0.21.0; 0.99 with one round: the capture's noise, 0.01-0.03 mm, makes
+    up 7e-5 of the hand's motion, so it gets the virtual markers' two rounds)."""
+    import splicer.defaults as D
     import dataclasses
 
     from splicer.align.passes import hold_ends
@@ -197,8 +199,10 @@ def test_splice_markers_runs_the_wrist_refinement_on_the_real_capture(shared_mot
     for radius in (0.0, None):
         r = align_marker_files(t, h, **({} if radius is None else {"wrist_radius_s": radius}))
         err[radius] = float(np.mean(np.abs(hold_ends(r.time_maps["right"]) - truth) * t.fps / 120.0))
-        assert ("wrist_shift_frames" in r.report.to_dict()["sides"]["right"]) is (radius is None)
-    assert err[None] < 0.9 * err[0.0], err  # measured 0.99 against 1.24
+        side = r.report.to_dict()["sides"]["right"]
+        assert ("wrist_shift_frames" in side) is (radius is None)
+    assert 0.0 < side["wrist_noise_share"] < D.WRIST_ROUNDS_NOISE_SHARE_MAX and side["wrist_rounds"] == D.WRIST_ROUNDS
+    assert err[None] < 0.75 * err[0.0], err  # measured 0.86 against 1.24 (one round: 0.99)
 
 
 def test_noisy_optical_markers_leave_the_wrist_refinement_out(session, monkeypatch):

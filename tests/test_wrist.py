@@ -255,8 +255,38 @@ def test_stage_rounds_start_where_the_last_left(weighed, monkeypatch):
     calls.clear()
     noisy = {s: replace(r, markers=replace(r.markers, noise={"body": np.zeros_like(r.markers.body.points)}))
              for s, r in weighed.items()}  # a (silent) noise draw: the markers are optical
-    splicer.refine_time_maps(noisy, SpliceOptions())
+    assert all(r.markers.placed != ("optical", "optical") for r in noisy.values())
+    out = splicer.refine_time_maps(noisy, SpliceOptions())
+    assert len(calls) == len(weighed)  # optical markers on one take, virtual ones on the other: one round
+    assert all(r.extra["wrist_rounds"] == 1 and r.extra["wrist_noise_share"] == 0.0 for r in out.values())
+
+
+def test_stage_rounds_of_optical_markers_follow_their_noise(weighed, monkeypatch):
+    """Optical markers on both takes get WRIST_ROUNDS rounds where their measured noise makes up
+    less than WRIST_ROUNDS_NOISE_SHARE_MAX of the hand's motion relative to the forearm, one above."""
+    import splicer.align.wrist as W
+    import splicer.defaults as D
+
+    calls = []
+    real = W.refine_map
+    monkeypatch.setattr(W, "refine_map", lambda *a, **kw: calls.append(1) or real(*a, **kw))
+    monkeypatch.setattr(D, "WRIST_ROUNDS", 2)
+
+    def optical(scale_cm):
+        rng = np.random.default_rng(5)
+        return {s: replace(r, markers=replace(r.markers, placed=("optical", "optical"),
+                                              noise={"body": scale_cm * rng.standard_normal(r.markers.body.points.shape)}))
+                for s, r in weighed.items()}
+
+    quiet = splicer.refine_time_maps(optical(1e-4), SpliceOptions())  # a micrometre (the sample is in cm): shares 4e-7, 8e-7
+    assert len(calls) == 2 * len(weighed)
+    for s, r in quiet.items():
+        assert r.extra["wrist_rounds"] == 2 and 0.0 < r.extra["wrist_noise_share"] < D.WRIST_ROUNDS_NOISE_SHARE_MAX
+    calls.clear()
+    jittery = splicer.refine_time_maps(optical(0.02), SpliceOptions())  # 0.2 mm, a fifth of the protocol's least: 0.017, 0.034
     assert len(calls) == len(weighed)
+    for s, r in jittery.items():
+        assert r.extra["wrist_rounds"] == 1 and r.extra["wrist_noise_share"] > D.WRIST_ROUNDS_NOISE_SHARE_MAX
 
 
 def test_turn_onto_recovers_a_rotation():

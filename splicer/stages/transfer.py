@@ -146,7 +146,8 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
     from dataclasses import replace
 
     from ..align.wrist import WristEvidence, markers_compare, noise_share, refine_map
-    from ..defaults import WRIST_NOISE_SHARE_MAX, WRIST_OFFSET_SMOOTH_S, WRIST_ROUNDS, WRIST_SLOPE_S, WRIST_SMOOTH_S
+    from ..defaults import (WRIST_NOISE_SHARE_MAX, WRIST_OFFSET_SMOOTH_S, WRIST_ROUNDS, WRIST_ROUNDS_NOISE_SHARE_MAX,
+                            WRIST_SLOPE_S, WRIST_SMOOTH_S)
     from ..transfer.timemap import monotone_pinned
 
     if opts.merge != "timemap" or not opts.wrist_radius_s > 0:
@@ -171,13 +172,16 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
             log.note(f"{s} side: the wrist's refinement left out: the optical markers' noise makes up {share:.0%} of the "
                      f"hand's motion relative to the forearm (over {WRIST_NOISE_SHARE_MAX:.0%}); the time map stays as "
                      "the passes made it")
-            out[s] = replace(r, extra={**r.extra, "wrist_noise_share": round(share, 3)})
+            out[s] = replace(r, extra={**r.extra, "wrist_noise_share": float(f"{share:.3g}")})
             log.progress(f"{s}: wrist", 1.0)
             continue
-        # a second round where the markers carry no measured noise: it reads the signal again from where the
-        # first moved the map (measured: noisy optical markers lose by it; benchmarks/HISTORY.md, 0.19.0)
+        # a second round where the markers carry no noise: it reads the signal again from where the first
+        # moved the map (measured: noisy optical markers lose by it, and so do optical markers on one take
+        # against virtual ones on the other; benchmarks/HISTORY.md, 0.19.0 and 0.21.0)
+        quiet = r.markers.placed == ("optical", "optical") and share < WRIST_ROUNDS_NOISE_SHARE_MAX
+        rounds = WRIST_ROUNDS if not noise or quiet else 1
         offset = 0.0
-        for _ in range(WRIST_ROUNDS if not noise else 1):
+        for _ in range(rounds):
             fit = refine_map(body_pts, hands_pts, c, fps=sp.body_fps, radius_s=opts.wrist_radius_s,
                              smooth_s=WRIST_SMOOTH_S, offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
             c, offset = fit.refined, offset + fit.offset
@@ -186,8 +190,9 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
         tm[a:b + 1] = new
         shift, sd = np.full(len(tm), np.nan), np.full(len(tm), np.nan)
         shift[a:b + 1], sd[a:b + 1] = np.abs(offset) / sp.body_fps, fit.sd / sp.body_fps  # common frames: the body rate
-        more = {"wrist_noise_share": round(share, 3)} if noise else {}
-        out[s] = replace(r, hands_frame=tm, extra={**r.extra, "wrist_shift_frames": round(moved, 3), **more},
+        more = {"wrist_noise_share": float(f"{share:.3g}")} if noise else {}
+        out[s] = replace(r, hands_frame=tm, extra={**r.extra, "wrist_shift_frames": round(moved, 3), "wrist_rounds": rounds,
+                                                   **more},
                          wrist=WristEvidence(shift_s=shift, sd_s=sd))
         log.progress(f"{s}: wrist", 1.0)
     return out

@@ -148,8 +148,9 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     from .align.frames import FrameSpaces, pins_from_config
     from .rig.marker_arm import arm_from_trajectories
     from .options import resolve_options
-    from .pipeline import (Log, SideMarkers, SideResult, _align_up, _coverage_report, align_side, mark_coverage_edges,
+    from .pipeline import (Log, SideMarkers, SideResult, _coverage_report, align_side, mark_coverage_edges,
                            refine_time_maps, time_map)
+    from .stages.markers import to_common
     from .report import Report, SideReport
     from .io.trajectories import Trajectories, read_trajectories
 
@@ -163,7 +164,6 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
     log.tick("read")
     spaces = FrameSpaces(bt.n_frames, ht.n_frames, bt.fps, ht.fps)
     maps, side_reports, columns = {}, {}, {}
-    from .align.passes import resample_markers
 
     sides = _sides_for(bt, ht, side, cfg, log)
     unsided = any("neither marker file names a side" in w for w in log.warnings)
@@ -173,13 +173,13 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
         for msg in barm.notes + harm.notes:
             if msg not in log.warnings and not (unsided and "tell no side" in msg):
                 log.note(msg)
-        hmk = resample_markers(_align_up(harm.markers, barm.markers.up), bt.fps)
+        hmk = to_common(harm.markers, barm.markers.up, bt.fps)
         real = {"body": barm.report(bt), "hands": harm.report(ht)}
         noise, bnoise, hnoise = {}, barm.noise_sample(), harm.noise_sample()  # each drawn once
         if bnoise is not None:
-            noise["body"] = bnoise.points
+            noise["body"] = to_common(bnoise, barm.markers.up).points
         if hnoise is not None:  # carried as the hands' markers are
-            noise["hands"] = resample_markers(_align_up(hnoise, barm.markers.up), bt.fps).points
+            noise["hands"] = to_common(hnoise, barm.markers.up, bt.fps).points
         sm = SideMarkers(s, barm.markers, hmk, spaces, tuple(pins_from_config(cfg, s, spaces)), real,
                          placed=("optical", "optical"), noise=noise)
         log.tick("markers")

@@ -82,3 +82,29 @@ def test_noise_share_worked():
     assert np.isnan(noise_share(body[:2], hands, c[:2], body_noise=nb[:2], **kw))
     with pytest.raises(ValueError, match="finite"):
         noise_share(body, hands, np.where(np.arange(250) == 3, np.nan, c), body_noise=nb, **kw)
+
+
+def test_to_common_carries_markers_and_their_noise_alike():
+    """stages.markers.to_common: the axes relabelled so that the body's axis is up (a cyclic
+    permutation), then resampled to the body's rate; linear, so a noise draw carried the same way
+    is the difference it makes to the carried markers."""
+    from splicer.rig.markers import Markers
+    from splicer.stages.markers import to_common
+
+    t = np.arange(121, dtype=np.float64)  # 2 s at 60 fps, z up
+    pts = np.stack([np.stack([t, 2 * t, 3 * t + k], axis=1) for k in range(4)], axis=1)
+    sh = np.stack([t, -t, np.full_like(t, 5.0)], axis=1)
+    m = Markers(pts, sh, np.zeros(len(t)), 2, 60.0, "left")
+    same = to_common(m, 2)
+    assert same is m  # already z up, no rate given: untouched
+    y_up = to_common(m, 1)  # new axis k takes old axis (k + 1) % 3: z becomes y
+    assert y_up.up == 1 and y_up.fps == 60.0
+    np.testing.assert_array_equal(y_up.points[5, 0], [2 * 5.0, 3 * 5.0, 5.0])
+    np.testing.assert_array_equal(y_up.shoulder[5], [-5.0, 5.0, 5.0])
+    half = to_common(m, 1, 30.0)  # and at half the rate: linear motion keeps its values at the kept instants
+    assert half.fps == 30.0 and half.n_frames == 61
+    np.testing.assert_allclose(half.points[10, 3], [2 * 20.0, 3 * 20.0 + 3, 20.0], atol=1e-9)
+    noise = Markers(np.random.default_rng(0).normal(size=pts.shape), np.zeros_like(sh), np.zeros(len(t)), 2, 60.0, "left")
+    noisy = Markers(pts + noise.points, sh, m.heading, 2, 60.0, "left")
+    np.testing.assert_allclose(to_common(noisy, 1, 30.0).points - half.points, to_common(noise, 1, 30.0).points,
+                               atol=1e-9)

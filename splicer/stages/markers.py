@@ -10,7 +10,7 @@ from .rig import Rig
 from .log import Log
 from .load import Inputs
 
-__all__ = ['SideMarkers', 'side_markers']
+__all__ = ['SideMarkers', 'side_markers', 'to_common']
 
 
 # ---------------------------------------------------------------- stage 3: markers
@@ -64,9 +64,22 @@ def _align_up(markers, up_to: int):
                    up_to, markers.fps, markers.side)
 
 
+def to_common(markers, up: int, fps: float | None = None):
+    """Markers as the alignment sees them: axes relabelled so that ``up`` is vertical, and
+    resampled to ``fps`` (the body's rate: the hands take's markers) when given.
+
+    The one path a take's markers take, and the draw of their noise with them
+    (:meth:`splicer.rig.marker_arm.MarkerArm.noise_sample`): every step is linear, so a draw
+    carried this way is the noise as the alignment sees it.
+    """
+    from ..align.passes import resample_markers
+
+    m = _align_up(markers, up)
+    return m if fps is None else resample_markers(m, fps)
+
+
 def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) -> SideMarkers:
     """Virtual markers of ``side`` in both takes, the hands brought to the body's rate and up axis."""
-    from ..align.passes import resample_markers
     from ..rig.handonly import coincident_forearm, hand_only_view, is_hand_only
     from ..rig.markers import arm_markers, marker_placement
 
@@ -104,8 +117,8 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
             log.note(msg)
         real[take] = arm.report(traj)
         drawn = arm.noise_sample()
-        if drawn is not None:  # every step below is linear: the noise as the alignment sees it
-            noise[take] = _align_up(on_frames(drawn, motion.n_frames, motion.fps)[0], rig.body.up)
+        if drawn is not None:  # put on the take's frames as the markers are; the rest below (to_common)
+            noise[take] = on_frames(drawn, motion.n_frames, motion.fps)[0]
         if take == "body":
             bmk = _align_up(mk, rig.body.up)
         else:
@@ -114,8 +127,8 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
     pins = pins_from_config(inputs.config, side, inputs.spaces)
     placed = ("optical" if "body" in real else body_placed,
               "optical" if "hands" in real else marker_placement(hm.skeleton, harm))
-    noise = {t: (m if t == "body" else resample_markers(m, bm.fps)).points for t, m in noise.items()}
-    out = SideMarkers(side, bmk, resample_markers(hmk, bm.fps), inputs.spaces, pins, real, hand_only, placed, noise)
+    noise = {t: to_common(m, rig.body.up, None if t == "body" else bm.fps).points for t, m in noise.items()}
+    out = SideMarkers(side, bmk, to_common(hmk, rig.body.up, bm.fps), inputs.spaces, pins, real, hand_only, placed, noise)
     if side == rig.sides[-1]:  # the arm chains' rotations (the sides share the root and spine): not needed again
         bm.forget_rotations()
         hm.forget_rotations()

@@ -146,12 +146,11 @@ WRIST_NOISE_SHARE_MAX = 0.2
 #: no measured noise (optical markers: one).  0.19.0: two (tuning seeds 0-3, every scenario's mean
 #: error lower or equal, the imitation 0.017 -> 0.013 s and 0.029 -> 0.021 s; benchmarks/HISTORY.md).
 WRIST_ROUNDS = 2
-#: ... and optical markers on both takes whose measured noise makes up less than this share of
-#: the hand's motion relative to the forearm (:func:`splicer.align.wrist.noise_share`) get those
-#: rounds too: the noise the second round would fit is not there (0.21.0: the protocol's markers
-#: made without noise measure 1e-5 to 1.7e-4, the shared Vicon capture 6.6e-5, the protocol's
-#: 1-2 mm of noise 0.004-0.19; a noise-free optical marker set on one take only, against the
-#: other take's virtual markers, measured worse with two rounds: it keeps one; benchmarks/HISTORY.md).
+#: ... and optical markers whose measured noise makes up less than this share of the hand's
+#: motion relative to the forearm (:func:`splicer.align.wrist.noise_share`) get those rounds too,
+#: against optical markers or virtual ones on the styloids: the noise the second round would fit
+#: is not there (0.21.0: the protocol's markers made without noise measure 1e-5 to 1.7e-4, the
+#: shared Vicon capture 6.6e-5, the protocol's 1-2 mm of noise 0.004-0.19; benchmarks/HISTORY.md).
 WRIST_ROUNDS_NOISE_SHARE_MAX = 1e-3
 #: Median merge: frames blended each side of a jump.
 BLEND_WINDOW_FRAMES = 4

@@ -108,6 +108,22 @@ def test_splice_with_hands_markers(session):
     assert all(v.alignment.pass2 is not None for v in both.sides.values())
     plain = splice(d / "body.bvh", d / "hands.bvh")  # the BVHs' virtual markers keep pass 2
     assert all(v.alignment.pass2 is not None for v in plain.sides.values())
+    # against optical markers, the other take's virtual wrist markers sit on the styloids; between
+    # BVHs, across the palm
+    from splicer.align.wrist import ANATOMICAL, STYLOID
+
+    assert all(v.markers.placed == (STYLOID, "optical") for v in r.sides.values())
+    assert all(v.markers.placed == (ANATOMICAL, ANATOMICAL) for v in plain.sides.values())
+    ran = [v for v in r.sides.values() if v.wrist is not None]
+    assert ran and all(v.extra["wrist_rounds"] == 2 for v in ran)  # hands markers made without noise
+    from splicer.io.config import SpliceConfig
+
+    rigid = splice(d / "body.bvh", d / "hands.bvh", hands_markers=d / "hands.c3d",
+                   config=SpliceConfig(markers={"hands": {"derive": "rigid"}}))  # its wrist markers ride on the hand
+    assert all(v.markers.placed == (ANATOMICAL, "optical") for v in rigid.sides.values())
+    body_optical = splice(d / "body.bvh", d / "hands.bvh", body_markers=d / "body.c3d")
+    assert all(v.markers.placed == ("optical", STYLOID) for v in body_optical.sides.values())
+    assert all(v.extra.get("wrist_rounds", 1) == 1 for v in body_optical.sides.values())  # 1-2 mm of noise
 
 
 def test_passes_of():

@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
+from splicer.align.wrist import ANATOMICAL as W_ANATOMICAL, STYLOID as W_STYLOID
 from splicer.align.wrist import (comparable_placements, expected_offsets, hand_in_forearm, offset_costs, offset_posterior,
                                  rate_mismatch, refine_map, turn_onto)
 
@@ -261,9 +262,13 @@ def test_stage_rounds_start_where_the_last_left(weighed, monkeypatch):
     assert all(r.extra["wrist_rounds"] == 1 and r.extra["wrist_noise_share"] == 0.0 for r in out.values())
 
 
-def test_stage_rounds_of_optical_markers_follow_their_noise(weighed, monkeypatch):
-    """Optical markers on both takes get WRIST_ROUNDS rounds where their measured noise makes up
-    less than WRIST_ROUNDS_NOISE_SHARE_MAX of the hand's motion relative to the forearm, one above."""
+@pytest.mark.parametrize("placed, quiet_rounds", [(("optical", "optical"), 2), (("optical", W_STYLOID), 2),
+                                                  ((W_STYLOID, "optical"), 2), (("optical", W_ANATOMICAL), 1)])
+def test_stage_rounds_of_optical_markers_follow_their_noise(weighed, monkeypatch, placed, quiet_rounds):
+    """Optical markers get WRIST_ROUNDS rounds where their measured noise makes up less than
+    WRIST_ROUNDS_NOISE_SHARE_MAX of the hand's motion relative to the forearm and the other take's
+    markers are optical or virtual ones on the styloids; one above, or against virtual markers
+    across the palm."""
     import splicer.align.wrist as W
     import splicer.defaults as D
 
@@ -274,14 +279,14 @@ def test_stage_rounds_of_optical_markers_follow_their_noise(weighed, monkeypatch
 
     def optical(scale_cm):
         rng = np.random.default_rng(5)
-        return {s: replace(r, markers=replace(r.markers, placed=("optical", "optical"),
+        return {s: replace(r, markers=replace(r.markers, placed=placed,
                                               noise={"body": scale_cm * rng.standard_normal(r.markers.body.points.shape)}))
                 for s, r in weighed.items()}
 
     quiet = splicer.refine_time_maps(optical(1e-4), SpliceOptions())  # a micrometre (the sample is in cm): shares 4e-7, 8e-7
-    assert len(calls) == 2 * len(weighed)
+    assert len(calls) == quiet_rounds * len(weighed)
     for s, r in quiet.items():
-        assert r.extra["wrist_rounds"] == 2 and 0.0 < r.extra["wrist_noise_share"] < D.WRIST_ROUNDS_NOISE_SHARE_MAX
+        assert r.extra["wrist_rounds"] == quiet_rounds and 0.0 < r.extra["wrist_noise_share"] < D.WRIST_ROUNDS_NOISE_SHARE_MAX
     calls.clear()
     jittery = splicer.refine_time_maps(optical(0.02), SpliceOptions())  # 0.2 mm, a fifth of the protocol's least: 0.017, 0.034
     assert len(calls) == len(weighed)
@@ -304,6 +309,8 @@ def test_comparable_placements():
     assert comparable_placements(full, full)
     assert comparable_placements("optical", full) and comparable_placements(full, "optical")
     assert comparable_placements("optical", "optical")
+    assert comparable_placements("optical", W_STYLOID) and comparable_placements(W_STYLOID, "optical")
+    assert not comparable_placements(W_STYLOID, full)  # only made against optical markers
     assert not comparable_placements("p1-p2 across-across, p3 elbow, p4 hand", full)  # a body without fingers
     assert not comparable_placements("p1-p2 index-pinky, p3 forearm joint, p4 middle", "optical")
     assert not comparable_placements("", "")

@@ -36,7 +36,7 @@ from numba import njit
 
 from ..transfer.sampling import sample_linear
 
-__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "comparable_placements", "markers_compare", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
+__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "STYLOID", "comparable_placements", "markers_compare", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
            "WristFit", "WristEvidence", "refine_map", "rate_mismatch", "noise_share"]
 
 #: Offsets are searched on a grid of this many common (body) frames.
@@ -89,6 +89,9 @@ def hand_in_forearm(points: np.ndarray) -> np.ndarray:
 #: the index and pinky bases, the forearm's from the elbow, the hand's at the middle finger's base;
 #: the roles optical markers have (styloids, forearm, hand: :mod:`splicer.rig.marker_roles`).
 ANATOMICAL = "p1-p2 index-pinky, p3 elbow, p4 middle"
+#: The same with the wrist markers on the styloids (``arm_markers(..., wrist="styloid")``), as the
+#: virtual markers of a take aligned against optical ones are made.
+STYLOID = "p1-p2 index-pinky styloid, p3 elbow, p4 middle"
 _P3_ELBOW, _P3_FOREARM_JOINT, _P3_HAND = ", p3 elbow,", ", p3 forearm joint,", ", p3 hand,"
 
 
@@ -96,7 +99,7 @@ def comparable_placements(body: str, hands: str) -> bool:
     """Whether the hand's direction in the forearm's frame compares between two takes' markers.
 
     Placed the same way (:func:`splicer.rig.markers.marker_placement`), or optical markers on one
-    take and the anatomical placement (:data:`ANATOMICAL`) on the other, or a body's real
+    take and the anatomical placement (:data:`ANATOMICAL`, :data:`STYLOID`) on the other, or a body's real
     forearm (``p3 elbow``) against a hand file's virtual one turned with its forearm joint
     (``p3 forearm joint``, Leap: it points along the real forearm,
     :func:`splicer.rig.handonly.hand_only_view`), the rest alike: a fixed difference of where
@@ -110,7 +113,7 @@ def comparable_placements(body: str, hands: str) -> bool:
     if not body or not hands or _P3_HAND in body or _P3_HAND in hands:
         return False
     return (body == hands or body.replace(_P3_ELBOW, _P3_FOREARM_JOINT) == hands
-            or {body, hands} == {"optical", ANATOMICAL})
+            or {body, hands} in ({"optical", ANATOMICAL}, {"optical", STYLOID}))
 
 
 def markers_compare(placed: tuple, body_points: np.ndarray, hands_points: np.ndarray) -> bool:

@@ -2,7 +2,10 @@
 
 * ``p1``, ``p2``: the wrist joint offset by plus/minus half the wrist width along the
   radial-ulnar axis (pinky base -> index base; thumb base when the index is missing);
-  the width is the distance between those bases.
+  the width is the distance between those bases.  ``wrist="styloid"`` places them as real
+  wrist markers sit, on the styloids: the rest pose's radial-ulnar axis turned with the
+  forearm and with the hand's twist about it (pronation, which the radius carries and a rig
+  without twist bones keeps in the wrist joint), not with the hand's bending.
 * ``p3``: the midpoint of elbow and wrist.  A wrist-rooted hand file has no elbow: its
   forearm is taken as continuing straight back from the hand (the rest-pose direction
   middle base -> wrist, turned with the wrist), 2.5 hand lengths long.
@@ -22,9 +25,9 @@ from ..model.kinematics import global_transforms, rest_positions
 from ..model.motion import Motion
 from .handgeom import HAND_PER_FOREARM, finger_anchors
 from .roles import ArmRoles
-from ..model.rotations import atan2_stable, quat_rotate
+from ..model.rotations import atan2_stable, quat_conj, quat_mul, quat_normalize, quat_rotate
 
-__all__ = ["Markers", "arm_markers", "marker_placement", "root_heading"]
+__all__ = ["Markers", "WRIST_PLACEMENTS", "arm_markers", "marker_placement", "root_heading"]
 
 FOREARM_PER_HAND = 2.5  # forearm length in hand lengths (wrist -> middle base), for hand-only files
 
@@ -101,7 +104,26 @@ def _sources(keys) -> tuple[str, str | None, str | None]:
     return p4, radial, ulnar
 
 
-def marker_placement(sk, arm: ArmRoles, *, p3: str | None = None) -> str:
+#: Where :func:`arm_markers` puts the wrist markers: across the palm (``"palm"``, the default) or
+#: on the styloids (``"styloid"``), as optical markers sit.
+WRIST_PLACEMENTS = ("palm", "styloid")
+
+
+def _styloid_ready(arm: ArmRoles, radial, ulnar) -> bool:
+    """The styloid placement needs a forearm joint and both sides of the hand."""
+    return arm.elbow is not None and radial is not None and ulnar is not None
+
+
+def _twist(parent_rot: np.ndarray, child_rot: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """The part of ``child_rot`` relative to ``parent_rot`` that turns about ``axis`` (given in
+    the parent's frame; swing-twist decomposition), quaternions (T, 4); identity where undefined."""
+    rel = quat_mul(quat_conj(parent_rot), child_rot)
+    tw = np.concatenate([rel[:, :1], (rel[:, 1:] @ axis)[:, None] * axis[None]], axis=1)
+    ok = np.linalg.norm(tw, axis=1, keepdims=True) > 1e-12
+    return quat_normalize(np.where(ok, tw, np.array([1.0, 0.0, 0.0, 0.0])))
+
+
+def marker_placement(sk, arm: ArmRoles, *, p3: str | None = None, wrist: str = "palm") -> str:
     """How :func:`arm_markers` places one side's markers on this skeleton, in words.
 
     Two takes whose placements are equal have markers made the same way from the same kind of
@@ -115,8 +137,11 @@ def marker_placement(sk, arm: ArmRoles, *, p3: str | None = None) -> str:
     Examples
     --------
     ``"p1-p2 index-pinky, p3 elbow, p4 middle"``; a body without finger joints:
-    ``"p1-p2 across-across, p3 elbow, p4 hand"``.
+    ``"p1-p2 across-across, p3 elbow, p4 hand"``; ``wrist="styloid"`` (where the rig allows it):
+    ``"p1-p2 index-pinky styloid, p3 elbow, p4 middle"``.
     """
+    if wrist not in WRIST_PLACEMENTS:
+        raise ValueError(f"wrist must be one of {WRIST_PLACEMENTS}, got {wrist!r}")
     anchors = finger_anchors(sk, arm, rest_positions(sk))
     keys = {f: ("*" if np.any(off) else "") for f, (_, off) in anchors.items()} or {"hand": ""}
     p4, radial, ulnar = _sources(keys)
@@ -125,10 +150,11 @@ def marker_placement(sk, arm: ArmRoles, *, p3: str | None = None) -> str:
     name = {k: k + keys.get(k, "") for k in (p4, radial, ulnar)}
     if p3 is None:  # as arm_markers turns it
         p3 = "elbow" if arm.elbow is not None else ("hand" if sk.parents[arm.wrist] < 0 else "forearm joint")
-    return f"p1-p2 {name[radial]}-{name[ulnar]}, p3 {p3}, p4 {name[p4]}"
+    on = " styloid" if wrist == "styloid" and _styloid_ready(arm, radial if radial != "across" else None, ulnar) else ""
+    return f"p1-p2 {name[radial]}-{name[ulnar]}{on}, p3 {p3}, p4 {name[p4]}"
 
 
-def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
+def arm_markers(motion: Motion, arm: ArmRoles, up: int, *, wrist: str = "palm") -> Markers:
     """Virtual markers of one side of ``motion``.
 
     Parameters
@@ -138,6 +164,11 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
         The side's joints (see :func:`splicer.roles.find_roles`).
     up : int
         Vertical axis of the motion.
+    wrist : {"palm", "styloid"}
+        Where ``p1, p2`` sit: across the palm (turned with the hand), or on the styloids
+        (turned with the forearm and its pronation: where optical wrist markers sit, for a take
+        aligned against one that has them); ``"styloid"`` falls back to the palm on a rig without
+        a forearm joint or without both sides of the hand.
 
     Returns
     -------
@@ -148,6 +179,8 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
     RoleError
         When the hand has no finger joints to place the hand and wrist markers.
     """
+    if wrist not in WRIST_PLACEMENTS:
+        raise ValueError(f"wrist must be one of {WRIST_PLACEMENTS}, got {wrist!r}")
     sk = motion.skeleton
     rest = rest_positions(sk)
     # each finger's base: its first joint away from the wrist, or its End Site (coarse rigs
@@ -188,6 +221,14 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int) -> Markers:
         across = np.cross(long_axis, side_axis)
         n = np.linalg.norm(across, axis=-1, keepdims=True)
         across = across / np.maximum(n, 1e-12) * 0.5 * np.linalg.norm(long_axis, axis=-1, keepdims=True)
+    elif wrist == "styloid" and _styloid_ready(arm, radial, ulnar):
+        # the rest pose's radial-ulnar axis, carried by the forearm and the hand's twist about it
+        rest_base = {f: rest[j] + off for f, (j, off) in anchors.items()}
+        rest_p4 = np.mean(np.stack(list(rest_base.values())), axis=0) if p4_key == "mean" else rest_base[p4_key]
+        rest_across = rest_base[radial_key] - (rest_p4 if ulnar_key == p4_key else rest_base[ulnar_key])
+        axis = rest[arm.wrist] - rest[arm.elbow]
+        axis = axis / max(float(np.linalg.norm(axis)), 1e-12)  # in the forearm's frame: joint frames are world at rest
+        across = quat_rotate(quat_mul(grot[:, 1], _twist(grot[:, 1], grot[:, 0], axis)), rest_across)
     else:
         across = radial - ulnar
     p1 = w + 0.5 * across

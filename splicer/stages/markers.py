@@ -123,10 +123,21 @@ def side_markers(inputs: Inputs, rig: Rig, side: str, log: Log | None = None) ->
             bmk = _align_up(mk, rig.body.up)
         else:
             hmk = _align_up(mk, rig.body.up)
+    hands_placed = marker_placement(hm.skeleton, harm)
+    if len(real) == 1 and not hand_only and next(iter(real.values()))["derivation"] == "role averages":
+        # optical markers on one take only: the other take's virtual wrist markers sit where real ones
+        # do, on the styloids (turned with the forearm and its pronation, not with the hand's bending),
+        # so that both takes' markers read the same motion (benchmarks/HISTORY.md, 0.21.0).  Markers
+        # derived from rigid segments carry their wrist markers with the hand, as the palm placement does
+        if "hands" in real:
+            bmk = arm_markers(bm, rig.body.sides[side], rig.body.up, wrist="styloid")
+            body_placed = marker_placement(bm.skeleton, rig.body.sides[side], wrist="styloid")
+        else:
+            hmk = _align_up(arm_markers(hm, harm, rig.hands.up, wrist="styloid"), rig.body.up)
+            hands_placed = marker_placement(hm.skeleton, harm, wrist="styloid")
     # --- end issue 14 ---
     pins = pins_from_config(inputs.config, side, inputs.spaces)
-    placed = ("optical" if "body" in real else body_placed,
-              "optical" if "hands" in real else marker_placement(hm.skeleton, harm))
+    placed = ("optical" if "body" in real else body_placed, "optical" if "hands" in real else hands_placed)
     noise = {t: to_common(m, rig.body.up, None if t == "body" else bm.fps).points for t, m in noise.items()}
     out = SideMarkers(side, bmk, to_common(hmk, rig.body.up, bm.fps), inputs.spaces, pins, real, hand_only, placed, noise)
     if side == rig.sides[-1]:  # the arm chains' rotations (the sides share the root and spine): not needed again

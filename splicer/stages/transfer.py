@@ -145,7 +145,7 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
     """
     from dataclasses import replace
 
-    from ..align.wrist import WristEvidence, markers_compare, noise_share, refine_map
+    from ..align.wrist import STYLOID, WristEvidence, markers_compare, noise_share, refine_map
     from ..defaults import (WRIST_NOISE_SHARE_MAX, WRIST_OFFSET_SMOOTH_S, WRIST_ROUNDS, WRIST_ROUNDS_NOISE_SHARE_MAX,
                             WRIST_SLOPE_S, WRIST_SMOOTH_S)
     from ..transfer.timemap import monotone_pinned
@@ -176,9 +176,10 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
             log.progress(f"{s}: wrist", 1.0)
             continue
         # a second round where the markers carry no noise: it reads the signal again from where the first
-        # moved the map (measured: noisy optical markers lose by it, and so do optical markers on one take
-        # against virtual ones on the other; benchmarks/HISTORY.md, 0.19.0 and 0.21.0)
-        quiet = r.markers.placed == ("optical", "optical") and share < WRIST_ROUNDS_NOISE_SHARE_MAX
+        # moved the map (measured: noisy optical markers lose by it, and so do optical markers against
+        # virtual ones placed across the palm; benchmarks/HISTORY.md, 0.19.0 and 0.21.0)
+        alike = set(r.markers.placed) in ({"optical"}, {"optical", STYLOID})
+        quiet = alike and share < WRIST_ROUNDS_NOISE_SHARE_MAX
         rounds = WRIST_ROUNDS if not noise or quiet else 1
         offset = 0.0
         for _ in range(rounds):

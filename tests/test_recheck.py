@@ -18,8 +18,17 @@ N = 60
 FULL = "p1-p2 index-pinky, p3 elbow, p4 middle"
 
 
+def _swinging_hand():
+    """Wrist markers and forearm fixed, the hand swinging in the forearm's frame: a wrist that moves."""
+    t = np.arange(N)
+    p = np.zeros((N, 4, 3))
+    p[:, 0], p[:, 1], p[:, 2] = [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-10.0, 0.0, 0.0]
+    p[:, 3] = np.stack([3.0 * np.cos(t / 5.0), np.zeros(N), 3.0 * np.sin(t / 5.0)], axis=1)
+    return p
+
+
 def _side(weight=D.POSITION_WEIGHT_NOISY, shift=0.0, ratio=0.5, **mk):
-    pts = np.ones((N, 4, 3))
+    pts = _swinging_hand()
     markers = dict(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0), hand_only=False, real={},
                    body=SimpleNamespace(points=pts), hands=SimpleNamespace(points=pts), placed=(FULL, FULL))
     markers.update(mk)
@@ -77,7 +86,7 @@ def test_the_better_matching_pair_is_kept(stand_ins):
 
 
 @pytest.mark.parametrize("case", ["weight given", "clean pair", "hand-only", "optical", "placed apart", "not a number",
-                                  "one side", "another performance", "switched off"])
+                                  "still wrist", "one side", "another performance", "switched off"])
 def test_who_gets_no_second_opinion(stand_ins, monkeypatch, case):
     opts, sides = SpliceOptions(), _pair()
     if case == "weight given":
@@ -91,9 +100,11 @@ def test_who_gets_no_second_opinion(stand_ins, monkeypatch, case):
     elif case == "placed apart":  # a wrist-rooted hand file's forearm turns with the hand
         sides = _pair(placed=(FULL, "p1-p2 index-pinky, p3 hand, p4 middle"))
     elif case == "not a number":
-        bad = np.ones((N, 4, 3))
+        bad = _swinging_hand()
         bad[5, 0, 0] = np.nan
         sides = _pair(body=SimpleNamespace(points=bad))
+    elif case == "still wrist":  # the hand never turns in its forearm (a Leap clip's forearm joint turns with it)
+        sides = _pair(hands=SimpleNamespace(points=np.ones((N, 4, 3))))
     elif case == "one side":
         sides = {"left": _side()}
     elif case == "another performance":  # no better than the hands played backwards: all low confidence anyway

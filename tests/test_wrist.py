@@ -325,21 +325,27 @@ def test_comparable_placements():
 def test_real_rigs_run_the_stage_only_where_markers_are_placed_alike(shared_motions):
     """Real files: the CMU body's hand has no finger joints of its own kind (its markers come from a
     thumb End Site and the hand's), so against the bundled sample's full hands the stage does not
-    run; the ZEGGS body against the same hands does; a Leap (forearm-rooted) hand against the
-    ZEGGS body runs it, a ManipNet (wrist-rooted) one does not."""
+    run; the ZEGGS body against the same hands does; a Leap (forearm-rooted) hand is placed alike
+    against the ZEGGS body, but its forearm joint turns with its hand, so its hand never turns in
+    the forearm's frame and the stage has nothing to read (until 0.21.0 it ran and moved nothing);
+    a ManipNet (wrist-rooted) one is not placed alike."""
+    from splicer.align.wrist import wrist_moves
     from splicer.rig.markers import marker_placement
     from splicer.rig.roles import find_roles
 
-    cases = ((shared_motions / "cmu" / "01_01.bvh", MOTIONS / "sample_hands.bvh", False),
-             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", MOTIONS / "sample_hands.bvh", True),
-             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", shared_motions / "leap-hands" / "clenching.bvh", True),
-             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", shared_motions / "manipnet-hands" / "teapot3_rightHand.bvh", False))
-    for body, hands, runs in cases:
+    cases = ((shared_motions / "cmu" / "01_01.bvh", MOTIONS / "sample_hands.bvh", False, False),
+             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", MOTIONS / "sample_hands.bvh", True, True),
+             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", shared_motions / "leap-hands" / "clenching.bvh", True, False),
+             (shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh", shared_motions / "manipnet-hands" / "teapot3_rightHand.bvh",
+              False, False))
+    for body, hands, alike, runs in cases:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the Leap file's short Frames: line (reported, not the point here)
             r = splicer.splice(body, hands, side="right")
-        placed = r.sides["right"].markers.placed
-        assert comparable_placements(*placed) is runs, (body.name, hands.name, placed)
+        mk = r.sides["right"].markers
+        assert comparable_placements(*mk.placed) is alike, (body.name, hands.name, mk.placed)
+        if alike:  # the Leap hand is still in its forearm's frame
+            assert wrist_moves(mk.body.points) and wrist_moves(mk.hands.points) is runs
         assert ("wrist_shift_frames" in r.report.to_dict()["sides"]["right"]) is runs, (body.name, hands.name)
     cmu = splicer.read_bvh(shared_motions / "cmu" / "01_01.bvh")
     assert marker_placement(cmu.skeleton, find_roles(cmu.skeleton).sides["right"]) == "p1-p2 thumb*-hand, p3 elbow, p4 hand"
@@ -371,3 +377,21 @@ def test_stage_leaves_a_side_with_unreadable_markers(weighed):
                                       r.markers.hands.fps, r.markers.hands.side)
     broken = {s: replace(r, markers=replace(r.markers, hands=bad_hands))}
     assert splicer.refine_time_maps(broken, SpliceOptions())[s] is broken[s]
+
+
+def test_a_wrist_that_never_turns_holds_nothing_to_read():
+    """wrist_moves: a hand fixed in its forearm's frame (the forearm carried with the hand, as the
+    Leap clips' forearm joint is) reads as no wrist motion, and markers_compare refuses it; the
+    same markers with the hand swinging read as motion (worked answers)."""
+    from splicer.align.wrist import ANATOMICAL, STILL_WRIST, markers_compare, wrist_moves
+
+    t = np.arange(200)
+    q = np.stack([np.cos(t / 20.0), np.sin(t / 20.0), np.zeros(len(t))], axis=1)  # the whole arm turning about z
+    rigid = np.stack([q * 0.0 + [0.0, 0.0, 1.0], q * 0.0 - [0.0, 0.0, 1.0], -10.0 * q, 3.0 * q], axis=1)
+    assert not wrist_moves(rigid)  # the hand keeps its direction in the (turning) forearm's frame
+    moving = rigid.copy()
+    moving[:, 3] += np.stack([np.zeros(len(t)), np.zeros(len(t)), 0.5 * np.sin(t / 7.0)], axis=1)
+    assert wrist_moves(moving) and np.max(np.std(hand_in_forearm(moving), axis=0)) > 1e3 * STILL_WRIST
+    assert markers_compare((ANATOMICAL, ANATOMICAL), moving, moving)
+    assert not markers_compare((ANATOMICAL, ANATOMICAL), moving, rigid)
+    assert not wrist_moves(moving[:1])  # one frame: nothing to read

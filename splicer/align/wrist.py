@@ -36,7 +36,7 @@ from numba import njit
 
 from ..transfer.sampling import sample_linear
 
-__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "STYLOID", "comparable_placements", "markers_compare", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
+__all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "STYLOID", "STILL_WRIST", "comparable_placements", "markers_compare", "wrist_moves", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
            "WristFit", "WristEvidence", "refine_map", "rate_mismatch", "noise_share"]
 
 #: Offsets are searched on a grid of this many common (body) frames.
@@ -116,12 +116,26 @@ def comparable_placements(body: str, hands: str) -> bool:
             or {body, hands} in ({"optical", ANATOMICAL}, {"optical", STYLOID}))
 
 
+#: A take whose hand direction in the forearm's frame (:func:`hand_in_forearm`, each unit-vector
+#: component's standard deviation) varies less than this holds no wrist motion: a hand-only file
+#: whose forearm joint turns with the hand (the shared Leap clips: exactly 0).
+STILL_WRIST = 1e-6
+
+
+def wrist_moves(points: np.ndarray) -> bool:
+    """Whether the hand turns in the forearm's frame at all over these markers (:data:`STILL_WRIST`)."""
+    d = hand_in_forearm(points)
+    return bool(len(d) > 1 and float(np.max(np.std(d, axis=0))) > STILL_WRIST)
+
+
 def markers_compare(placed: tuple, body_points: np.ndarray, hands_points: np.ndarray) -> bool:
     """Whether the wrist's signal can be read from these markers: placements that compare
-    (:func:`comparable_placements`, ``placed`` as ``(body, hands)``) and every marker a number.
-    The one rule for the wrist's refinement (:func:`splicer.stages.transfer.refine_time_maps`)
-    and the second opinion that reads the same signal (:mod:`splicer.stages.recheck`)."""
-    return bool(comparable_placements(*placed) and np.isfinite(body_points).all() and np.isfinite(hands_points).all())
+    (:func:`comparable_placements`, ``placed`` as ``(body, hands)``), every marker a number, and
+    a hand that turns in its forearm in both takes (:func:`wrist_moves`).  The one rule for the
+    wrist's refinement (:func:`splicer.stages.transfer.refine_time_maps`) and the second opinion
+    that reads the same signal (:mod:`splicer.stages.recheck`)."""
+    return bool(comparable_placements(*placed) and np.isfinite(body_points).all() and np.isfinite(hands_points).all()
+                and wrist_moves(body_points) and wrist_moves(hands_points))
 
 
 def turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 from ..model.kinematics import global_transforms, rest_positions
 from ..model.motion import Motion
 from ..rig.roles import Roles, find_roles
-from ..model.rotations import quat_conj, quat_mul, quat_normalize, quat_rotate, quat_slerp
+from ..model.rotations import quat_conj, quat_mul, quat_rotate, quat_slerp, quat_twist
 from ..transfer.sampling import resample_motion
 from ..io.trajectories import Trajectories
 
@@ -135,9 +135,7 @@ def skin_markers(motion: Motion, *, rng: np.random.Generator, roles: Roles | Non
         # distance along the forearm (1 at the styloids)
         ke, kw = joints.index(arm.elbow), joints.index(arm.wrist)
         axis = _unit(rest[arm.wrist] - rest[arm.elbow])  # in the elbow's frame (joint frames are world at rest)
-        rel = quat_mul(quat_conj(rot[:, ke]), rot[:, kw])
-        twist = np.concatenate([rel[:, :1], (rel[:, 1:] @ axis)[:, None] * axis[None]], axis=1)
-        twist = quat_normalize(np.where(np.linalg.norm(twist, axis=1, keepdims=True) > 1e-12, twist, [1, 0, 0, 0]))
+        twist = quat_twist(quat_mul(quat_conj(rot[:, ke]), rot[:, kw]), axis)
         length = float(np.linalg.norm(rest[arm.wrist] - rest[arm.elbow]))
         for name, (j, p_rest) in layout.items():
             k = joints.index(j)

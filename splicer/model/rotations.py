@@ -28,6 +28,7 @@ __all__ = [
     "euler_channels_deg",
     "quat_mul",
     "quat_conj",
+    "quat_twist",
     "quat_rotate",
     "quat_to_matrix",
     "quat_from_matrix",
@@ -250,6 +251,27 @@ def quat_normalize(q: np.ndarray) -> np.ndarray:
     """Scale quaternions to unit length."""
     q = np.asarray(q, dtype=np.float64)
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def quat_twist(q: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """The twist of rotations ``q`` about the unit vector ``axis`` (swing-twist decomposition:
+    ``q = swing * twist``, the twist turning about ``axis`` only); the identity where ``q`` turns
+    by 180 degrees about an axis perpendicular to ``axis`` (no twist defined).
+
+    ``q`` is ``(..., 4)`` (w, x, y, z); ``axis`` ``(3,)`` in the frame ``q`` acts in.
+
+    Examples
+    --------
+    >>> h = np.radians(30.0) / 2.0
+    >>> q = np.array([np.cos(h), 0.0, 0.0, np.sin(h)])  # 30 degrees about z
+    >>> np.allclose(quat_twist(q, np.array([0.0, 0.0, 1.0])), q), np.allclose(quat_twist(q, np.array([1.0, 0.0, 0.0])), [1, 0, 0, 0])
+    (True, True)
+    """
+    q = np.asarray(q, dtype=np.float64)
+    a = np.asarray(axis, dtype=np.float64)
+    tw = np.concatenate([q[..., :1], (q[..., 1:] @ a)[..., None] * a], axis=-1)
+    ok = np.linalg.norm(tw, axis=-1, keepdims=True) > 1e-12
+    return quat_normalize(np.where(ok, tw, np.array([1.0, 0.0, 0.0, 0.0])))
 
 
 def quat_hemisphere(q: np.ndarray, axis: int = 0) -> np.ndarray:

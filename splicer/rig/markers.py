@@ -25,7 +25,7 @@ from ..model.kinematics import global_transforms, rest_positions
 from ..model.motion import Motion
 from .handgeom import HAND_PER_FOREARM, finger_anchors
 from .roles import ArmRoles
-from ..model.rotations import atan2_stable, quat_conj, quat_mul, quat_normalize, quat_rotate
+from ..model.rotations import atan2_stable, quat_conj, quat_mul, quat_rotate, quat_twist
 
 __all__ = ["Markers", "WRIST_PLACEMENTS", "arm_markers", "marker_placement", "root_heading"]
 
@@ -109,18 +109,9 @@ def _sources(keys) -> tuple[str, str | None, str | None]:
 WRIST_PLACEMENTS = ("palm", "styloid")
 
 
-def _styloid_ready(arm: ArmRoles, radial, ulnar) -> bool:
-    """The styloid placement needs a forearm joint and both sides of the hand."""
-    return arm.elbow is not None and radial is not None and ulnar is not None
-
-
-def _twist(parent_rot: np.ndarray, child_rot: np.ndarray, axis: np.ndarray) -> np.ndarray:
-    """The part of ``child_rot`` relative to ``parent_rot`` that turns about ``axis`` (given in
-    the parent's frame; swing-twist decomposition), quaternions (T, 4); identity where undefined."""
-    rel = quat_mul(quat_conj(parent_rot), child_rot)
-    tw = np.concatenate([rel[:, :1], (rel[:, 1:] @ axis)[:, None] * axis[None]], axis=1)
-    ok = np.linalg.norm(tw, axis=1, keepdims=True) > 1e-12
-    return quat_normalize(np.where(ok, tw, np.array([1.0, 0.0, 0.0, 0.0])))
+def _styloid_ready(arm: ArmRoles, sided: bool) -> bool:
+    """The styloid placement needs a forearm joint and both sides of the hand (``sided``)."""
+    return arm.elbow is not None and sided
 
 
 def marker_placement(sk, arm: ArmRoles, *, p3: str | None = None, wrist: str = "palm") -> str:
@@ -145,12 +136,13 @@ def marker_placement(sk, arm: ArmRoles, *, p3: str | None = None, wrist: str = "
     anchors = finger_anchors(sk, arm, rest_positions(sk))
     keys = {f: ("*" if np.any(off) else "") for f, (_, off) in anchors.items()} or {"hand": ""}
     p4, radial, ulnar = _sources(keys)
-    if radial is None or ulnar is None:
+    sided = radial is not None and ulnar is not None
+    if not sided:
         radial = ulnar = "across"
     name = {k: k + keys.get(k, "") for k in (p4, radial, ulnar)}
     if p3 is None:  # as arm_markers turns it
         p3 = "elbow" if arm.elbow is not None else ("hand" if sk.parents[arm.wrist] < 0 else "forearm joint")
-    on = " styloid" if wrist == "styloid" and _styloid_ready(arm, radial if radial != "across" else None, ulnar) else ""
+    on = " styloid" if wrist == "styloid" and _styloid_ready(arm, sided) else ""
     return f"p1-p2 {name[radial]}-{name[ulnar]}{on}, p3 {p3}, p4 {name[p4]}"
 
 
@@ -221,14 +213,15 @@ def arm_markers(motion: Motion, arm: ArmRoles, up: int, *, wrist: str = "palm") 
         across = np.cross(long_axis, side_axis)
         n = np.linalg.norm(across, axis=-1, keepdims=True)
         across = across / np.maximum(n, 1e-12) * 0.5 * np.linalg.norm(long_axis, axis=-1, keepdims=True)
-    elif wrist == "styloid" and _styloid_ready(arm, radial, ulnar):
+    elif wrist == "styloid" and _styloid_ready(arm, sided=True):
         # the rest pose's radial-ulnar axis, carried by the forearm and the hand's twist about it
         rest_base = {f: rest[j] + off for f, (j, off) in anchors.items()}
         rest_p4 = np.mean(np.stack(list(rest_base.values())), axis=0) if p4_key == "mean" else rest_base[p4_key]
         rest_across = rest_base[radial_key] - (rest_p4 if ulnar_key == p4_key else rest_base[ulnar_key])
         axis = rest[arm.wrist] - rest[arm.elbow]
         axis = axis / max(float(np.linalg.norm(axis)), 1e-12)  # in the forearm's frame: joint frames are world at rest
-        across = quat_rotate(quat_mul(grot[:, 1], _twist(grot[:, 1], grot[:, 0], axis)), rest_across)
+        pronation = quat_twist(quat_mul(quat_conj(grot[:, 1]), grot[:, 0]), axis)  # the wrist joint's, relative to the forearm
+        across = quat_rotate(quat_mul(grot[:, 1], pronation), rest_across)
     else:
         across = radial - ulnar
     p1 = w + 0.5 * across

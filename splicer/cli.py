@@ -320,9 +320,17 @@ def _start_numba_without_scipy() -> None:
         del sys.modules["scipy"]
 
 
-def main(argv=None) -> int:
+def main(argv=None, *, delegate: bool = True) -> int:
+    """The ``splice`` command (``argv``: its arguments; default ``sys.argv[1:]``, and then a running
+    ``splice-server`` of this very code runs it, unless ``delegate`` is false).  Returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    if argv is None and delegate:  # the command: a warm `splice-server` (splicer.server) runs it when one is up
+        from .server_client import delegate as on_server
+
+        code = on_server(sys.argv[1:])
+        if code is not None:
+            return code
     t0 = time.perf_counter()
     progress = _Progress(sys.stderr, not args.quiet)
     old_handlers = _install_handlers()

@@ -28,6 +28,8 @@ def parser(request, monkeypatch):
     big = request.param == "compiled"
     monkeypatch.setattr(bvh_read, "FAST_MIN_BYTES", 0 if big else 1 << 62)
     monkeypatch.setattr(bvh_write, "FAST_MIN_VALUES", 0 if big else 1 << 62)
+    monkeypatch.setattr(bvh_read, "PREFER_LOADED", big)  # this module loads the compiled code: numpy stays numpy
+    monkeypatch.setattr(bvh_write, "PREFER_LOADED", big)
     return request.param
 
 
@@ -101,6 +103,8 @@ def test_fixtures_same_values_and_bytes_both_ways(src, tmp_path, monkeypatch):
     for kind, read_min, write_min in (("numpy", 1 << 62, 1 << 62), ("compiled", 0, 0)):
         monkeypatch.setattr(bvh_read, "FAST_MIN_BYTES", read_min)
         monkeypatch.setattr(bvh_write, "FAST_MIN_VALUES", write_min)
+        monkeypatch.setattr(bvh_read, "PREFER_LOADED", kind == "compiled")
+        monkeypatch.setattr(bvh_write, "PREFER_LOADED", kind == "compiled")
         m = _read_quiet(src)
         write_bvh(m, tmp_path / f"{kind}.bvh")
         out[kind] = (m.channels, (tmp_path / f"{kind}.bvh").read_bytes())
@@ -240,3 +244,24 @@ def test_read_input_reads_a_file_that_shrinks_or_grows_after_it_was_sized(tmp_pa
     n_full = min(len(data), size) // 1024
     assert seen[:n_full] == pytest.approx([k * 1024 / size for k in range(1, n_full + 1)])
     assert seen == sorted(seen) and seen[-1] == pytest.approx(min(1.0, len(data) / size))
+
+
+def test_loaded_compiled_code_reads_and_writes_small_files(tmp_path, monkeypatch):
+    """Once the compiled parser and formatter are loaded (as in splice-server), a small file goes
+    through them: proven by making the numpy path fail; the same values and bytes."""
+    src = DATA / "two_joints_zxy.bvh"
+    m0 = _read_quiet(src)
+    assert m0.channels.size
+    write_bvh(m0, tmp_path / "numpy.bvh")
+    import splicer.io.fastformat  # noqa: F401
+    import splicer.io.fastparse  # noqa: F401
+
+    def fail(*a, **k):
+        raise AssertionError("the numpy path ran")
+
+    monkeypatch.setattr(bvh_read, "_parse_small", fail)
+    monkeypatch.setattr(bvh_write.np, "savetxt", fail)
+    m1 = _read_quiet(src)
+    write_bvh(m1, tmp_path / "compiled.bvh")
+    assert m0.channels.tobytes() == m1.channels.tobytes()
+    assert (tmp_path / "numpy.bvh").read_bytes() == (tmp_path / "compiled.bvh").read_bytes()

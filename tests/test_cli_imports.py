@@ -73,3 +73,15 @@ def test_a_run_with_plot_draws_with_pillow_not_matplotlib(tmp_path):
                           "--plot", "p.png", "-q", cwd=tmp_path)
     assert code == 0 and (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "PIL" in mods and "matplotlib" not in mods
+
+
+def test_the_scripts_question_to_a_server_imports_nothing_numeric(tmp_path):
+    """The `splice` script first asks a running splice-server to take the run (none runs here)."""
+    code = ("import json, sys\nfrom splicer.server_client import delegate\nr = delegate(['a.bvh', 'b.bvh', '-o', 'o.bvh'])\n"
+            "print(json.dumps({'r': r, 'modules': sorted({m.split('.')[0] for m in sys.modules})}))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               SPLICER_SERVER_SOCKET=str(tmp_path / "none.sock"))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path, check=True)
+    last = json.loads(out.stdout.strip().splitlines()[-1])
+    assert last["r"] is None  # no server: the script runs the command itself
+    assert not set(last["modules"]) & HEAVY, sorted(set(last["modules"]) & HEAVY)

@@ -9,12 +9,21 @@ from splicer import splice
 MOTIONS = Path(__file__).resolve().parents[1] / "motions"
 
 
+def _stages(prefer_loaded: bool):
+    from splicer.io import bvh_read
+
+    seen = []
+    with pytest.MonkeyPatch.context() as mp:
+        # small files: np.loadtxt, unless an earlier test loaded the compiled parser (then it reads them)
+        mp.setattr(bvh_read, "PREFER_LOADED", prefer_loaded)
+        splice(str(MOTIONS / "sample_body.bvh"), str(MOTIONS / "sample_hands.bvh"),
+               progress=lambda stage, f: seen.append((stage, f)))
+    return seen
+
+
 @pytest.fixture(scope="module")
 def stages():
-    seen = []
-    splice(str(MOTIONS / "sample_body.bvh"), str(MOTIONS / "sample_hands.bvh"),
-           progress=lambda stage, f: seen.append((stage, f)))
-    return seen
+    return _stages(False)
 
 
 def _fractions(stages, name):
@@ -40,6 +49,18 @@ def test_reading_moves_the_bar_by_bytes(stages):
     share = 0.3  # splicer.io.bvh_read.READ_SHARE: reading the bytes, then parsing them
     t = body + hands
     assert _fractions(stages, "read") == pytest.approx([0.0, share * body / t, body / t, (body + share * hands) / t, 1.0])
+
+
+def test_reading_with_the_compiled_parser_moves_the_bar_by_bytes_too():
+    """The compiled parser (loaded in splice-server) also reports its parsing: the same points, more between."""
+    import splicer.io.fastparse  # noqa: F401
+
+    body, hands = (MOTIONS / "sample_body.bvh").stat().st_size, (MOTIONS / "sample_hands.bvh").stat().st_size
+    share, t = 0.3, body + hands
+    f = _fractions(_stages(True), "read")
+    assert f == sorted(f) and f[0] == 0.0 and f[-1] == 1.0
+    for point in (share * body / t, body / t, (body + share * hands) / t):
+        assert point == pytest.approx(min(f, key=lambda x: abs(x - point)))
 
 
 @pytest.mark.parametrize("side", ["left", "right"])

@@ -3,7 +3,8 @@
 * ```python blocks run in a temporary folder holding the bundled sample under the names the
   README uses (body.bvh, hands.bvh, right_hand.bvh, sync.yaml).
 * ```sh blocks: each ``splice`` command runs as ``python -m splicer.cli`` in such a folder and
-  must exit 0 and write what it names.  Lines that set up an environment (``python3 -m venv``,
+  must exit 0 and write what it names; ``splice-server`` commands run as ``python -m
+  splicer.server`` on a socket of the block's own (a server a block starts is stopped after it).  Lines that set up an environment (``python3 -m venv``,
   ``pip install``) are skipped: the tests already run inside one.  The line that runs the test
   suite is skipped (it would run this test again), and so are ``splicer-evaluate`` (minutes on
   the real capture in ../shared; benchmarks/ holds its output) and ``mutmut`` (tens of minutes;
@@ -118,6 +119,8 @@ def _commands(block: str) -> list[tuple[str, list[str] | None]]:
                 out.append((cmd, _SKIPPED["benchmark"]))
             elif prog == "splice":
                 out.append((cmd, [sys.executable, "-m", "splicer.cli", *argv[1:]]))
+            elif prog == "splice-server":
+                out.append((cmd, [sys.executable, "-m", "splicer.server", *argv[1:]]))
             elif prog == "splice-batch":
                 out.append((cmd, [sys.executable, "-m", "splicer.batch", *argv[1:], "--workers", "1", "-q"]))
             else:
@@ -134,17 +137,35 @@ def test_sh_commands_are_all_known():
 @pytest.mark.slow
 @pytest.mark.parametrize("code", _params("sh"))
 def test_sh_block(code, workdir):
+    import tempfile
+
+    ran = 0
+    reasons = []
+    sock_dir = tempfile.mkdtemp(prefix="spl-")  # a block that starts splice-server starts its own, here
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+           "PYTHONWARNINGS": "", "SPLICER_SERVER_SOCKET": os.path.join(sock_dir, "s.sock")}
+    try:
+        ran, reasons = _run_sh_block(code, workdir, env)
+    finally:
+        subprocess.run([sys.executable, "-m", "splicer.server", "stop", "-q"], env=env, capture_output=True)
+        shutil.rmtree(sock_dir, ignore_errors=True)
+    if not ran:
+        pytest.skip("; ".join(reasons))
+
+
+def _run_sh_block(code, workdir, env) -> tuple[int, list[str]]:
     ran = 0
     reasons = []
     for cmd, argv in _commands(code):
         if not isinstance(argv, list):
             reasons.append(f"{cmd!r}: {argv}")
             continue
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
-               "PYTHONWARNINGS": ""}
         p = subprocess.run(argv, cwd=workdir, capture_output=True, text=True, env=env)
         assert p.returncode == 0, f"{cmd}\n{p.stderr}"
         assert "Traceback" not in p.stderr
+        if argv[2] == "splicer.server":
+            ran += 1
+            continue
         i = argv.index("-o")
         if argv[2] == "splicer.batch":  # the summary in -o, each pair's output where its manifest entry says
             import yaml
@@ -162,8 +183,7 @@ def test_sh_block(code, workdir):
             assert (workdir / name).stat().st_size > 0, f"{cmd}: {name} not written"
             (workdir / name).unlink()
         ran += 1
-    if not ran:
-        pytest.skip("; ".join(reasons))
+    return ran, reasons
 
 
 # -- yaml ------------------------------------------------------------------------------------

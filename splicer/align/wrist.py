@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..model.rotations import cross3
 from ..transfer.sampling import sample_linear
 
 __all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "STYLOID", "STILL_WRIST", "comparable_placements", "markers_compare", "wrist_moves", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
@@ -80,7 +81,7 @@ def hand_in_forearm(points: np.ndarray) -> np.ndarray:
     x = unit(p[:, 2] - c)
     y = p[:, 0] - p[:, 1]
     y = unit(y - (y * x).sum(-1, keepdims=True) * x)
-    z = np.cross(x, y)
+    z = cross3(x, y)
     h = unit(p[:, 3] - c)
     return np.stack([(h * x).sum(-1), (h * y).sum(-1), (h * z).sum(-1)], axis=-1)
 

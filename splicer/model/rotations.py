@@ -41,6 +41,7 @@ __all__ = [
     "quat_between",
     "yaw_quat_deg",
     "atan2_stable",
+    "cross3",
 ]
 
 
@@ -169,17 +170,14 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product ``a * b`` (apply ``b`` first, then ``a``)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        axis=-1,
-    )
+    aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    out = np.empty(np.broadcast_shapes(a.shape[:-1], b.shape[:-1]) + (4,))
+    out[..., 0] = aw * bw - ax * bx - ay * by - az * bz
+    out[..., 1] = aw * bx + ax * bw + ay * bz - az * by
+    out[..., 2] = aw * by - ax * bz + ay * bw + az * bx
+    out[..., 3] = aw * bz + ax * by - ay * bx + az * bw
+    return out
 
 
 def quat_conj(q: np.ndarray) -> np.ndarray:
@@ -194,8 +192,27 @@ def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
     w = q[..., :1]
     u = q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    t = 2.0 * cross3(u, v)
+    return v + w * t + cross3(u, t)
+
+
+def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of 3-vectors ``(..., 3)`` (broadcasting), the same numbers bit for bit, without
+    its axis handling (a third of a warm run's rotations on small takes).
+
+    >>> cross3(np.array([1.0, 0.0, 0.0]), np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 2.0]]))
+    array([[ 0.,  0.,  1.],
+           [ 0., -2.,  0.]])
+    """
+    a = np.asarray(a)
+    b = np.asarray(b)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape[:-1], b.shape[:-1]) + (3,), dtype=np.result_type(a, b))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
@@ -347,13 +364,13 @@ def quat_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     un = u / np.maximum(np.linalg.norm(u, axis=-1, keepdims=True), 1e-300)
     vn = v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
     w = 1.0 + np.sum(un * vn, axis=-1, keepdims=True)
-    xyz = np.cross(un, vn)
+    xyz = cross3(un, vn)
     q = np.concatenate([w, xyz], axis=-1)
     opposite = (w[..., 0] < 1e-9)
     if np.any(opposite):
         # any axis perpendicular to u
         alt = np.where(np.abs(un[..., :1]) < 0.9, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
-        perp = np.cross(un, alt)
+        perp = cross3(un, alt)
         perp /= np.linalg.norm(perp, axis=-1, keepdims=True)
         half = np.concatenate([np.zeros(perp.shape[:-1] + (1,)), perp], axis=-1)
         q = np.where(opposite[..., None], half, q)

@@ -40,7 +40,7 @@ from ..rig.handgeom import hand_frame, same_anatomical_joint
 from ..model.kinematics import global_transforms, rest_positions
 from ..model.motion import Motion
 from ..rig.roles import FINGERS, ArmRoles
-from ..model.rotations import quat_rotate
+from ..model.rotations import cross3, quat_rotate
 
 __all__ = ["RANGES_DEG", "HYPEREXTENSION_DEG", "RANGE_SLACK_DEG", "CHUNK_FRAMES", "FingerAngles", "finger_angles",
            "finger_sanity", "sanity_warnings"]
@@ -121,7 +121,7 @@ def _signed(d0: np.ndarray, d1: np.ndarray, axis: np.ndarray) -> np.ndarray:
     a = axis / np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-300)
     p0 = d0 - a * np.sum(d0 * a, axis=-1, keepdims=True)
     p1 = d1 - a * np.sum(d1 * a, axis=-1, keepdims=True)
-    return np.degrees(np.arctan2(np.sum(np.cross(p0, p1) * a, axis=-1), np.sum(p0 * p1, axis=-1)))
+    return np.degrees(np.arctan2(np.sum(cross3(p0, p1) * a, axis=-1), np.sum(p0 * p1, axis=-1)))
 
 
 def finger_angles(motion: Motion, arm: ArmRoles, chirality: int) -> FingerAngles:
@@ -182,7 +182,7 @@ def _finger_angles(motion: Motion, arm: ArmRoles, chirality: int) -> FingerAngle
             d1 = pts[k + 1] - pts[k]
             if finger == "thumb":
                 # toward the palm: axis = proximal bone x palm (per frame)
-                axis = np.cross(d0, palm_w)
+                axis = cross3(d0, palm_w)
                 weak = np.linalg.norm(axis, axis=-1) < 1e-6 * np.linalg.norm(d0, axis=-1)
                 axis[weak] = r_w[weak]
             else:

@@ -89,12 +89,12 @@ def _peer_uid(conn: socket.socket) -> int | None:
 
 
 class _Server:
-    """The accept loop.  Each run is a process forked from the server.  One such process, the *spare*,
-    is forked ahead of time and repeats the warm-up run before it waits for a request: a process
-    just forked writes to memory it shares with the server, and each page it first writes to is
-    copied then (about 0.1 s of a run on the bundled sample); the spare has done that before the
-    command arrives.  When the spare is not ready (a run arrives while it warms up), the run is
-    forked directly."""
+    """The accept loop.  Each run is a process forked from the server.  The server cannot load the
+    parallel kernels itself (:func:`_prepare`), and a run that loads them from numba's disk cache
+    takes about twice as long on the bundled sample; so one run, the *spare*, is forked ahead of
+    time and makes the warm-up splice (loading every kernel) before it waits for a command.  A
+    command that arrives while the spare is still warming up is forked directly.  After a run ends
+    (and at the start) the next spare is forked."""
 
     def __init__(self, path: str, idle_s: float):
         self.path = path
@@ -179,22 +179,31 @@ class _Server:
         self.stop = True
 
     def _shutdown(self) -> None:
+        """Stop taking commands (later ones run by themselves), then let the runs in progress finish."""
         try:
             if os.stat(self.path).st_ino == self.inode:  # not a newer server's socket
                 os.unlink(self.path)
         except OSError:
             pass
+        self.sel.unregister(self.sock)
         self.sock.close()
+        self.stop = True  # no new spare
         self._drop_spare()
-        for pid in list(self.children):
-            try:
-                os.kill(pid, signal.SIGTERM)
-            except ProcessLookupError:
-                pass
-        deadline = time.monotonic() + 10
-        while self.children and time.monotonic() < deadline:
+        while self.children:
+            for key, _ in self.sel.select(0.5):
+                if key.data == "wake":
+                    try:
+                        while os.read(self.wake_r, 512):
+                            pass
+                    except BlockingIOError:
+                        pass
+                elif isinstance(key.data, int):  # the command went away: hang its run up
+                    self.sel.unregister(key.fileobj)
+                    try:
+                        os.kill(key.data, signal.SIGHUP)
+                    except ProcessLookupError:
+                        pass
             self._reap()
-            time.sleep(0.05)
 
     # -- the spare run ------------------------------------------------------------------------------
     def _fork_spare(self) -> None:

@@ -265,3 +265,21 @@ def test_start_status_stop(tmp_path):
     finally:
         _server(["stop", "--socket", sock], sock)
         shutil.rmtree(d, ignore_errors=True)
+
+
+def test_stop_lets_a_run_in_progress_finish(long_pair, tmp_path):
+    body, hands = long_pair
+    s = Server()
+    try:
+        s.wait_spare()
+        p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
+                             env=_env(s.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        _wait_running(s, 1)
+        r = _server(["stop", "--socket", s.sock], s.sock)
+        assert r.returncode == 0 and "stopped" in r.stdout
+        assert not os.path.exists(s.sock)  # later commands run by themselves
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0 and err == "", err
+        assert (tmp_path / "out.bvh").stat().st_size > 0
+    finally:
+        s.stop()

@@ -321,7 +321,7 @@ class _Server:
             cmd = msg.get("cmd")
             if cmd == "ping":
                 send_message(conn, {"pid": os.getpid(), "version": __version__, "fingerprint": self.print_,
-                                    "started": self.started, "runs": self.runs, "running": len(self.children),
+                                    "started": self.started, "runs": self.runs, "running": len(self.children), "run_pids": sorted(self.children),
                                     "spare": "ready" if self.spare_ready else "failed" if self.spare_failed else "warming", "idle_s": self.idle_s, "socket": self.path})
                 conn.close()
             elif cmd == "stop":

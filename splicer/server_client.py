@@ -112,8 +112,9 @@ def delegate(argv: list[str], prog: str = "splice") -> int | None:
     (none running, another version of the code, switched off), so the caller runs it itself.
 
     The run writes to this process's standard output and error; SIGINT, SIGTERM and SIGHUP sent to
-    this process are passed on to it (it cleans up and exits as the command would); a run killed
-    by a signal kills this process by the same signal.
+    this process are passed on to it (it cleans up and exits as the command would), Ctrl-Z stops it
+    with this process and SIGCONT resumes both; a run killed by a signal kills this process by the
+    same signal.
     """
     if not available():
         return None
@@ -169,11 +170,29 @@ def _wait(sock: socket.socket) -> int | None:
             except ProcessLookupError:
                 pass
 
+    def suspend(signum, frame):  # Ctrl-Z: the run stops with the command, and goes on with it
+        if pid is not None:
+            try:
+                os.kill(pid, signal.SIGSTOP)
+            except ProcessLookupError:
+                pass
+        signal.signal(signal.SIGTSTP, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTSTP)  # stopped here until SIGCONT
+        signal.signal(signal.SIGTSTP, suspend)
+
+    def resume(signum, frame):
+        if pid is not None:
+            try:
+                os.kill(pid, signal.SIGCONT)
+            except ProcessLookupError:
+                pass
+
     old = {}
-    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
-        sig = getattr(signal, name)
-        if signal.getsignal(sig) in (signal.SIG_DFL, signal.default_int_handler):
-            old[sig] = signal.signal(sig, forward)
+    for name, handler in (("SIGINT", forward), ("SIGTERM", forward), ("SIGHUP", forward), ("SIGTSTP", suspend),
+                          ("SIGCONT", resume)):
+        sig = getattr(signal, name, None)
+        if sig is not None and signal.getsignal(sig) in (signal.SIG_DFL, signal.default_int_handler):
+            old[sig] = signal.signal(sig, handler)
     try:
         while True:
             try:

@@ -283,3 +283,28 @@ def test_stop_lets_a_run_in_progress_finish(long_pair, tmp_path):
         assert (tmp_path / "out.bvh").stat().st_size > 0
     finally:
         s.stop()
+
+
+def _state(pid: int) -> str:
+    with open(f"/proc/{pid}/stat") as f:
+        return f.read().rsplit(")", 1)[1].split()[0]
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="reads process states from /proc")
+def test_ctrl_z_stops_the_run_with_the_command_and_sigcont_resumes_both(server, long_pair, tmp_path):
+    body, hands = long_pair
+    server.wait_spare()
+    p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
+                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _wait_running(server, 1)
+    time.sleep(0.2)
+    (run,) = _ping(server.sock)["run_pids"]
+    p.send_signal(signal.SIGTSTP)
+    deadline = time.monotonic() + 30
+    while (_state(p.pid), _state(run)) != ("T", "T") and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert (_state(p.pid), _state(run)) == ("T", "T")
+    p.send_signal(signal.SIGCONT)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == 0 and err == "", err
+    assert (tmp_path / "out.bvh").stat().st_size > 0

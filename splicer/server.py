@@ -5,7 +5,8 @@ a warm run on the bundled sample).
 ``splice-server start`` starts it in the background; while it runs, every ``splice`` command of the
 same user and the same installed code hands its run to it (:mod:`splicer.server_client`).  Each
 run is a process forked from the server: it starts in the command's folder, with its environment,
-umask, standard input, output and error, so it behaves as the command would (the same files,
+umask, resource limits (the lower of its and the server's), standard input, output and error, so
+it behaves as the command would (the same files,
 messages and exit status; Ctrl-C, SIGTERM and SIGHUP reach it through the command; a command
 killed outright hangs the run up, which then cleans up as on SIGHUP), and nothing of one run
 stays in the server for the next.  One run is forked ahead of time, the *spare*: it loads the
@@ -30,7 +31,7 @@ import sys
 import time
 
 from . import __version__
-from .server_client import connect, fingerprint, recv_message, send_message, socket_path
+from .server_client import apply_limits, connect, fingerprint, recv_message, send_message, socket_path
 
 #: Minutes without a run after which the server stops.
 IDLE_MINUTES = 30.0
@@ -426,6 +427,9 @@ class _Server:
         for fd in set(fds) - {0, 1, 2}:
             os.close(fd)
         os.umask(int(msg["umask"]))
+        apply_limits(msg.get("limits") or {})
+        for signum in msg.get("ignored") or ():  # as across exec: `nohup splice ...` keeps SIGHUP ignored
+            signal.signal(int(signum), signal.SIG_IGN)
         os.chdir(msg["cwd"])
         os.environ.clear()
         os.environ.update(msg["env"])

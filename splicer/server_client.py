@@ -81,6 +81,41 @@ def recv_message(sock: socket.socket, maxfds: int = 0) -> tuple[dict | None, lis
     return json.loads(buf[4:4 + n]), fds
 
 
+#: Resource limits a command's run keeps (``ulimit -v``, ``-f``, ``-t``, ``-n``...): the run takes
+#: the lower of the command's and the server's.
+LIMITS = ("RLIMIT_AS", "RLIMIT_DATA", "RLIMIT_RSS", "RLIMIT_FSIZE", "RLIMIT_CPU", "RLIMIT_NOFILE", "RLIMIT_CORE",
+          "RLIMIT_STACK")
+
+
+def limits() -> dict:
+    """This process's resource limits named in :data:`LIMITS`, ``{name: [soft, hard]}`` (-1: none)."""
+    import resource
+
+    return {n: list(resource.getrlimit(getattr(resource, n))) for n in LIMITS if hasattr(resource, n)}
+
+
+def apply_limits(given: dict) -> None:
+    """Lower this process's limits to ``given`` (:func:`limits` of the command) where they are lower;
+    a limit above this process's hard limit cannot be raised and stays as it is."""
+    import resource
+
+    def low(a, b):
+        return b if a == resource.RLIM_INFINITY else a if b == resource.RLIM_INFINITY else min(a, b)
+
+    for name, (soft, hard) in given.items():
+        which = getattr(resource, name, None)
+        if which is None:
+            continue
+        s0, h0 = resource.getrlimit(which)
+        h = low(int(hard), h0)
+        s = low(low(int(soft), s0), h)
+        if (s, h) != (s0, h0):
+            try:
+                resource.setrlimit(which, (s, h))
+            except (ValueError, OSError):
+                pass
+
+
 def available() -> bool:
     return (hasattr(os, "fork") and hasattr(socket, "AF_UNIX") and hasattr(socket, "send_fds")
             and os.environ.get(ENV_SWITCH, "").lower() not in ("off", "0", "no", "false"))
@@ -138,7 +173,9 @@ def delegate(argv: list[str], prog: str = "splice") -> int | None:
         mask = os.umask(0)
         os.umask(mask)
         request = {"cmd": "splice", "fingerprint": fingerprint(), "argv": list(argv), "prog": prog,
-                   "cwd": os.getcwd(), "env": dict(os.environ), "umask": mask,
+                   "cwd": os.getcwd(), "env": dict(os.environ), "umask": mask, "limits": limits(),
+                   "ignored": [int(getattr(signal, n)) for n in ("SIGHUP", "SIGINT", "SIGTERM", "SIGQUIT")
+                               if signal.getsignal(getattr(signal, n)) == signal.SIG_IGN],
                    "encoding": [getattr(s, "encoding", None) or "utf-8" for s in (sys.stdout, sys.stderr)],
                    "errors": [getattr(s, "errors", None) or "strict" for s in (sys.stdout, sys.stderr)]}
         sys.stdout.flush()

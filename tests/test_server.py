@@ -308,3 +308,42 @@ def test_ctrl_z_stops_the_run_with_the_command_and_sigcont_resumes_both(server, 
     _, err = p.communicate(timeout=300)
     assert p.returncode == 0 and err == "", err
     assert (tmp_path / "out.bvh").stat().st_size > 0
+
+
+def test_the_commands_resource_limits_hold_in_its_run(server, tmp_path):
+    """`ulimit -f` of the command: the run cannot write a file over it (the command's own limit, not the
+    server's), so the output is refused as when the command runs by itself; nothing is left."""
+    import resource
+
+    body, hands = small_files(tmp_path)
+
+    def small_files_only():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write over the limit fails instead of killing
+
+    server.wait_spare()
+    before = server.runs()
+    r = server.splice([body, hands, "-o", tmp_path / "out.bvh", "-q"], preexec_fn=small_files_only)
+    assert server.runs() == before + 1
+    off = server.splice([body, hands, "-o", tmp_path / "out.bvh", "-q"], preexec_fn=small_files_only,
+                        env={"SPLICER_SERVER": "off"})
+    assert r.returncode == off.returncode == 1, (r.stderr, off.stderr)
+    assert r.stderr == off.stderr and one_error_line(r.stderr).startswith("splice: error: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["body.bvh", "hands.bvh"]
+
+
+def test_signals_the_command_ignores_stay_ignored_in_its_run(server, long_pair, tmp_path):
+    """`nohup splice ...`: SIGHUP ignored by the command is ignored by its run too (as across exec)."""
+    body, hands = long_pair
+    server.wait_spare()
+    p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
+                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    _wait_running(server, 1)
+    time.sleep(0.2)
+    (run,) = _ping(server.sock)["run_pids"]
+    os.kill(run, signal.SIGHUP)  # as a hang-up of the terminal would reach it
+    p.send_signal(signal.SIGHUP)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == 0 and err == "", err
+    assert (tmp_path / "out.bvh").stat().st_size > 0

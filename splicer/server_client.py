@@ -37,10 +37,17 @@ def socket_path() -> str:
 
 def fingerprint() -> str:
     """What a server must match to run this command's job: the interpreter, the package's folder, its
-    version, and the newest modification time and number of its Python files (an edited or upgraded
-    package is not run by a server that loaded the old one)."""
+    version, the newest modification time and number of its Python files, and the times of numpy's,
+    numba's and llvmlite's files (an edited or upgraded package, or library, is not run by a server
+    that loaded the old one)."""
+    from importlib.util import find_spec
+
     from . import __version__
 
+    libs = []
+    for name in ("numpy", "numba", "llvmlite"):  # an upgrade of these (their files' times) counts as other code
+        spec = find_spec(name)
+        libs.append(f"{name}:{os.stat(spec.origin).st_mtime_ns if spec and spec.origin else None}")
     newest, count = 0, 0
     for root, dirs, files in os.walk(PACKAGE):
         dirs[:] = [d for d in dirs if d != "__pycache__"]
@@ -48,7 +55,7 @@ def fingerprint() -> str:
             if f.endswith(".py"):
                 count += 1
                 newest = max(newest, os.stat(os.path.join(root, f)).st_mtime_ns)
-    return f"{sys.executable}|{PACKAGE}|{__version__}|{newest}|{count}"
+    return f"{sys.executable}|{PACKAGE}|{__version__}|{newest}|{count}|{','.join(libs)}"
 
 
 def send_message(sock: socket.socket, obj: dict, fds: list[int] | None = None) -> None:

@@ -102,8 +102,8 @@ def limits() -> dict:
 
 
 def apply_limits(given: dict) -> None:
-    """Lower this process's limits to ``given`` (:func:`limits` of the command) where they are lower;
-    a limit above this process's hard limit cannot be raised and stays as it is."""
+    """Take the command's limits ``given`` (:func:`limits`): each hard limit the lower of the command's
+    and this process's (a hard limit cannot be raised), each soft limit the command's within it."""
     import resource
 
     def low(a, b):
@@ -115,7 +115,7 @@ def apply_limits(given: dict) -> None:
             continue
         s0, h0 = resource.getrlimit(which)
         h = low(int(hard), h0)
-        s = low(low(int(soft), s0), h)
+        s = low(int(soft), h)  # the command's soft limit, within the hard one
         if (s, h) != (s0, h0):
             try:
                 resource.setrlimit(which, (s, h))

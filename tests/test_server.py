@@ -55,7 +55,7 @@ class Server:
         self.dir = tempfile.mkdtemp(prefix="spl-")  # short: a Unix socket's path is at most ~100 bytes
         os.chmod(self.dir, 0o700)
         self.sock = os.path.join(self.dir, "s.sock")
-        r = _server(["start", "--socket", self.sock], self.sock)
+        r = _server(["start", "--socket", self.sock, "--idle", "10"], self.sock)  # an orphan stops on its own
         assert r.returncode == 0, r.stdout + r.stderr
         assert "ready" in r.stdout
 

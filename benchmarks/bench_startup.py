@@ -34,6 +34,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))  # splicer.server's query, for the server rows
 M = ROOT / "motions"
 
 
@@ -57,7 +59,6 @@ def _min(cmd, repeat, env=None, check=True) -> tuple[float, float]:
 def _served(sock: str, runs: int | None = None, timeout: float = 120.0) -> int:
     """Wait until the server at ``sock`` has served ``runs`` runs (if given), runs none and its spare
     is ready; returns its count of runs."""
-    sys.path.insert(0, str(ROOT))
     from splicer.server import _query
 
     deadline = time.monotonic() + timeout

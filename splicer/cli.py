@@ -320,17 +320,12 @@ def _start_numba_without_scipy() -> None:
         del sys.modules["scipy"]
 
 
-def main(argv=None, *, delegate: bool = True) -> int:
-    """The ``splice`` command (``argv``: its arguments; default ``sys.argv[1:]``, and then a running
-    ``splice-server`` of this very code runs it, unless ``delegate`` is false).  Returns the exit status."""
+def main(argv=None) -> int:
+    """The ``splice`` command in this process (``argv``: its arguments, default ``sys.argv[1:]``); returns
+    the exit status.  The ``splice`` script and ``python -m splicer.cli`` first offer the run to a running
+    ``splice-server`` (:func:`splicer.server_client.main`)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if argv is None and delegate:  # the command: a warm `splice-server` (splicer.server) runs it when one is up
-        from .server_client import delegate as on_server
-
-        code = on_server(sys.argv[1:])
-        if code is not None:
-            return code
     t0 = time.perf_counter()
     progress = _Progress(sys.stderr, not args.quiet)
     old_handlers = _install_handlers()
@@ -414,4 +409,6 @@ def main(argv=None, *, delegate: bool = True) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    from splicer.server_client import main as command
+
+    sys.exit(command())

@@ -158,20 +158,10 @@ class _Server:
                 for key, _ in self.sel.select(timeout):
                     if key.data == "accept":
                         self._accept()
-                    elif key.data == "wake":
-                        try:
-                            while os.read(r, 512):
-                                pass
-                        except BlockingIOError:
-                            pass
                     elif key.data == "spare":
                         self._spare_says()
-                    else:  # a command's connection: readable means it went away mid-run
-                        self.sel.unregister(key.fileobj)
-                        try:
-                            os.kill(key.data, signal.SIGHUP)
-                        except ProcessLookupError:
-                            pass
+                    else:
+                        self._wake_or_hang_up(key)
                 self._reap()
         finally:
             self._shutdown()
@@ -192,19 +182,24 @@ class _Server:
         self._drop_spare()
         while self.children:
             for key, _ in self.sel.select(0.5):
-                if key.data == "wake":
-                    try:
-                        while os.read(self.wake_r, 512):
-                            pass
-                    except BlockingIOError:
-                        pass
-                elif isinstance(key.data, int):  # the command went away: hang its run up
-                    self.sel.unregister(key.fileobj)
-                    try:
-                        os.kill(key.data, signal.SIGHUP)
-                    except ProcessLookupError:
-                        pass
+                self._wake_or_hang_up(key)
             self._reap()
+
+    def _wake_or_hang_up(self, key) -> None:
+        """The signal pipe readable: empty it (:meth:`_reap` follows).  A command's connection readable:
+        the command went away mid-run, so its run (``key.data``, its pid) gets SIGHUP."""
+        if key.data == "wake":
+            try:
+                while os.read(self.wake_r, 512):
+                    pass
+            except BlockingIOError:
+                pass
+            return
+        self.sel.unregister(key.fileobj)
+        try:
+            os.kill(key.data, signal.SIGHUP)
+        except ProcessLookupError:
+            pass
 
     # -- the spare run ------------------------------------------------------------------------------
     def _fork_spare(self) -> None:
@@ -444,7 +439,7 @@ class _Server:
 
         try:
             send_message(conn, {"pid": os.getpid()})  # from now on the command passes its signals on
-            return main(list(msg["argv"]), delegate=False)
+            return main(list(msg["argv"]))
         except KeyboardInterrupt:  # before the command's own handlers were in place
             print("splice: interrupted (SIGINT); nothing was written", file=sys.stderr)
             return 128 + int(signal.SIGINT)

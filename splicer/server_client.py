@@ -69,23 +69,23 @@ def send_message(sock: socket.socket, obj: dict, fds: list[int] | None = None) -
 
 def recv_message(sock: socket.socket, maxfds: int = 0) -> tuple[dict | None, list[int]]:
     """One message (``None`` at end of stream) and the descriptors that came with it."""
-    buf, fds = b"", []
-    while len(buf) < 4 or len(buf) < 4 + struct.unpack(">I", buf[:4])[0]:
+    buf, fds, need = b"", [], 4  # the length first, then the message
+    while len(buf) < need:
         if maxfds and not buf:
             chunk, got, _, _ = socket.recv_fds(sock, 1 << 16, maxfds)
             fds += got
         else:
-            want = 4 - len(buf) if len(buf) < 4 else 4 + struct.unpack(">I", buf[:4])[0] - len(buf)
-            chunk = sock.recv(min(want, 1 << 16))
+            chunk = sock.recv(min(need - len(buf), 1 << 16))
         if not chunk:
             for fd in fds:
                 os.close(fd)
             return None, []
         buf += chunk
-    n = struct.unpack(">I", buf[:4])[0]
-    if n > 1 << 24:
-        raise ValueError("message too long")
-    return json.loads(buf[4:4 + n]), fds
+        if len(buf) >= 4:
+            need = 4 + struct.unpack(">I", buf[:4])[0]
+            if need > 4 + (1 << 24):
+                raise ValueError("message too long")
+    return json.loads(buf[4:need]), fds
 
 
 #: Resource limits a command's run keeps (``ulimit -v``, ``-f``, ``-t``, ``-n``...): the run takes
@@ -281,4 +281,4 @@ def main() -> int:
         return code
     from .cli import main as run
 
-    return run(delegate=False)
+    return run()

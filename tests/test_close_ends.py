@@ -130,6 +130,39 @@ def test_the_stage_closes_only_ends_whose_material_continues(slow_tail):
     assert _close_ends(fake, t.n, int(t.path[-1, 1]) + 1 + int(D.CLOSE_ENDS_MAX_S * t.fps) + 10, t.fps) == (None, None)
 
 
+def test_a_head_of_more_than_ten_seconds_is_looked_at(sample_markers):
+    """The hands performer six times slower over the body's first 3 s, and an open path along the
+    truth that starts 11 s of hands material in (what the free open begin does with a slower head):
+    more than 0.20.0's 10 s limit, which left such a head open without a look.  The stage closes
+    it, along the truth; the same 11 s of the other arm's motion stays open."""
+    full, other = sample_markers
+    body = _cut(full, 140, 556)
+    n, fps = body.n_frames, body.fps
+    k = int(3 * fps)
+    shows = np.concatenate([np.linspace(0, k, 6 * k, endpoint=False), np.arange(k, n, dtype=float)])
+    hands = warp_markers(body, shows)
+    m = hands.n_frames
+    truth = np.interp(np.arange(n), shows, np.arange(m))          # hands frame of each body frame
+    short = int(11 * fps)                                          # the open path starts here
+    assert 10 * fps < short <= D.CLOSE_ENDS_MAX_S * fps
+    keep = truth > short
+    path = np.stack([np.arange(n)[keep], np.round(truth[keep]).astype(int)], axis=1)
+    path = np.concatenate([[[0, path[0, 1] - 1]], path])           # the first body frame on the hands frame before
+    p = pass1(body, hands, width=30.0, ends="open")
+    guide, note = _close_ends(SimpleNamespace(path=path, local_cost=p.local_cost, uncovered_cost=p.uncovered_cost),
+                              n, m, fps)
+    assert guide is not None and tuple(guide[0]) == (0, 0) and tuple(guide[-1]) == tuple(path[-1])
+    assert np.all(np.diff(guide, axis=0) >= 0) and "at the start" in note
+    closed = np.unique(guide[guide[:, 0] < path[1, 0], 0])       # several hands frames a row
+    mid = np.array([guide[guide[:, 0] == i, 1].mean() for i in closed])
+    assert np.median(np.abs(mid - truth[closed])) < 6.0            # 6 hands frames: one body frame here
+    # 11 s of the other arm's motion before the same material: left open
+    unrelated = _cat([_cut(other, 0, short + 1), _cut(hands, short + 1, m)])
+    pu = pass1(body, unrelated, width=30.0, ends="open")
+    fake = SimpleNamespace(path=path, local_cost=pu.local_cost, uncovered_cost=pu.uncovered_cost)
+    assert _close_ends(fake, n, unrelated.n_frames, fps) == (None, None)
+
+
 def test_a_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end():
     """The synthetic *speed + imitation* pair of tuning seed 1, whose open end
     stopped 7.7 s of hands material short (errors up to 1 s over the body's last 2 s, 0.19.0): now
@@ -148,3 +181,24 @@ def test_a_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end():
         assert r.report["sides"][s]["ends"] == "fixed"
         e = alignment_error_s(sep, v.hands_frame)
         assert np.nanmean(e[-k:]) < 0.1                         # 0.19.0: 0.57 and 0.66 s
+
+
+def test_a_splice_whose_hands_run_a_third_as_fast_at_the_start_is_aligned_end_to_end(shared_motions):
+    """The ZEGGS *speed + imitation* pair of tuning seed 4: the hands performer 0.34x as fast as the
+    body over its first 4.3 s, so the free open begin started 10.1 s of hands material in, just
+    over 0.20.0's 10 s limit (errors 0.11 s on average, 3.4 s at the start).  Now end to end,
+    with a note, within 0.1 s at the start and 0.05 s on average."""
+    from splicer import splice
+    from splicer.evaluation.scenario_types import alignment_error_s
+    from splicer.evaluation.scenarios import make_scenario, scenario
+    from splicer.io.bvh import read_bvh
+
+    take = read_bvh(shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh")
+    sep = make_scenario(take, scenario("speed+imitation"), rng=np.random.default_rng(4))
+    r = splice(sep.body, sep.hands)
+    assert any("s at the start" in w and "matches the performance" in w for w in r.report["warnings"])
+    k = int(4 * sep.body.fps)
+    for s, v in r.sides.items():
+        assert r.report["sides"][s]["ends"] == "fixed"
+        e = alignment_error_s(sep, v.hands_frame)
+        assert np.nanmax(e[:k]) < 0.1 and np.nanmean(e) < 0.05      # 0.20.0: 3.4 s and 0.11 s

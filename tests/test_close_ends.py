@@ -130,6 +130,37 @@ def test_the_stage_closes_only_ends_whose_material_continues(slow_tail):
     assert _close_ends(fake, t.n, int(t.path[-1, 1]) + 1 + int(D.CLOSE_ENDS_MAX_S * t.fps) + 10, t.fps) == (None, None)
 
 
+def test_pins_the_closed_path_must_pass(slow_tail):
+    """With pins: closed when the closed path passes every pin's window; left open when a pin in the
+    re-aligned block lies off it, and when fixed ends contradict a pin (constraints None)."""
+    from splicer.align.band import Constraint
+
+    t = slow_tail
+    fake = SimpleNamespace(path=t.path, local_cost=t.p.local_cost, uncovered_cost=t.p.uncovered_cost)
+    free, _ = _close_ends(fake, t.n, t.m, t.fps)
+    mid = t.n // 2
+    true_pin = Constraint(mid, int(round(t.truth[mid])), 2)
+    guide, note = _close_ends(fake, t.n, t.m, t.fps, (true_pin,))
+    assert guide is not None and np.array_equal(guide, free) and "at the end" in note
+    # a pin inside the re-aligned block (the body's last 2 s), 40 hands frames off the closed path
+    x = t.n - 10
+    y = int(free[free[:, 0] == x, 1].min()) - 40
+    assert _close_ends(fake, t.n, t.m, t.fps, (true_pin, Constraint(x, y, 2))) == (None, None)
+    assert _close_ends(fake, t.n, t.m, t.fps, None) == (None, None)
+
+
+def test_passes_constraints_worked_answers():
+    from splicer.align.band import Constraint
+    from splicer.stages.align import _passes_constraints
+
+    path = np.array([[0, 0], [1, 1], [1, 2], [2, 5]])
+    assert _passes_constraints(path, ())
+    assert _passes_constraints(path, (Constraint(1, 3, 1),))          # column 2 is within 1 of 3
+    assert not _passes_constraints(path, (Constraint(1, 4, 1),))      # columns 1-2 are not within 1 of 4
+    assert not _passes_constraints(path, (Constraint(2, 3, 1),))      # row 2 sits on column 5
+    assert _passes_constraints(path, (Constraint(2, 3, 2), Constraint(0, 0, 0)))
+
+
 def test_a_head_of_more_than_ten_seconds_is_looked_at(sample_markers):
     """The hands performer six times slower over the body's first 3 s, and an open path along the
     truth that starts 11 s of hands material in (what the free open begin does with a slower head):
@@ -202,3 +233,30 @@ def test_a_splice_whose_hands_run_a_third_as_fast_at_the_start_is_aligned_end_to
         assert r.report["sides"][s]["ends"] == "fixed"
         e = alignment_error_s(sep, v.hands_frame)
         assert np.nanmax(e[:k]) < 0.1 and np.nanmean(e) < 0.05      # 0.20.0: 3.4 s and 0.11 s
+
+
+def test_a_pinned_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end():
+    """The synthetic *speed + imitation* pair of tuning seed 1 (above) with two true pins mid-take
+    (tolerance 2): before 0.23.0 a pinned pair kept its open ends and its last 2 s were 0.5-0.7 s
+    off; now closed as without pins, and the pins hold."""
+    from splicer import splice
+    from splicer.evaluation.scenario_types import alignment_error_s
+    from splicer.evaluation.scenarios import make_scenario, scenario
+    from splicer.evaluation.synth import make_gesture_take
+    from splicer.io.config import parse_config
+
+    take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
+    sep = make_scenario(take, scenario("speed+imitation"), rng=np.random.default_rng(1))
+    n = sep.body.n_frames
+    xs = [n // 3, n // 2]
+    ys = [int(round(sep.truth[x])) for x in xs]
+    text = "pairs:\n" + "".join(f"  - {{body: {x}, hands: {y}}}\n" for x, y in zip(xs, ys)) + "tolerance: 2\n"
+    r = splice(sep.body, sep.hands, config=parse_config(text, "pins.yaml"))
+    assert any("left hands material that matches the performance" in w for w in r.report["warnings"])
+    k = int(2 * sep.body.fps)
+    for s, v in r.sides.items():
+        assert r.report["sides"][s]["ends"] == "fixed"
+        for x, y in zip(xs, ys):
+            assert abs(v.hands_frame[x] - y) <= 2 + 1e-9
+        e = alignment_error_s(sep, v.hands_frame)
+        assert np.nanmean(e[-k:]) < 0.1

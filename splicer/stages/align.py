@@ -321,8 +321,8 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                         log.note(f"{who}: the {arm} arm's own alignment runs from the takes' first frames to their "
                                  "last; both arms' takes start and end together, so they are aligned end to end "
                                  "(--ends open keeps the open ends)")
-                if why is None and not markers.pins:  # hands material left at an end that continues the performance
-                    closed, note = _close_ends(p1, n, m, fps)
+                if why is None:  # hands material left at an end that continues the performance
+                    closed, note = _close_ends(p1, n, m, fps, _fixed_constraints(markers, m))
                     if closed is not None:
                         why, together = _TOGETHER_WHY, closed
                         log.note(f"{who}: {note}")
@@ -644,12 +644,26 @@ def _contradicted(p1, k: int, q: np.ndarray, sides: list, n: int, m: int, fps: f
     return None
 
 
-def _close_ends(p1, n: int, m: int, fps: float):
+def _fixed_constraints(markers: SideMarkers, m: int):
+    """The side's pins as constraints of a pass with fixed ends (common frames), or None when a pin
+    on a first or last frame contradicts fixed ends (the pair then keeps its open ends)."""
+    try:
+        return tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=False))
+    except ConstraintError:
+        return None
+
+
+def _close_ends(p1, n: int, m: int, fps: float, constraints=()):
     """ends="auto", after an open-ended pass 1 that neither ran corner to corner nor found too short
     an overlap: a corner-to-corner guide when the path covers the whole body (within
     :data:`_TOGETHER_S`) and the hands material it leaves at either end continues the performance
     (:func:`splicer.align.openend.close_end`, :data:`splicer.defaults.CLOSE_ENDS_EXCESS`), with a
     note for the summary; else ``(None, None)``.
+
+    ``constraints``: the pins as constraints of a pass with fixed ends
+    (:func:`_fixed_constraints`); the guide must pass every one within its tolerance (the open
+    path does; a re-aligned end may not), else the ends stay open.  None (a pin that fixed ends
+    contradict): ``(None, None)``.
 
     The open end is free, so wherever the hands take runs slower than the body near an end, the
     open path stops short of real material (held-out synthetic *speed + imitation*, seed 101: 2.3 s
@@ -657,6 +671,8 @@ def _close_ends(p1, n: int, m: int, fps: float):
     """
     from ..align.openend import close_end
 
+    if constraints is None:
+        return None, None
     path = np.asarray(p1.path, dtype=np.int64)
     tol = _TOGETHER_S * fps
     (i0, j0), (i1, j1) = path[0], path[-1]
@@ -678,11 +694,20 @@ def _close_ends(p1, n: int, m: int, fps: float):
         path = np.concatenate([c.path, path[k + 1:]]) if end == "head" else np.concatenate([path[:k], c.path])
         said.append(f"{c.left_hands / fps:.1f} s at the {'start' if end == 'head' else 'end'} (costs "
                     f"{100 * max(z, 0.0):.0f}% of the way to unrelated material)")
-    if not said:
+    if not said or not _passes_constraints(path, constraints):
         return None, None
     return path, ("the open-ended alignment left hands material that matches the performance: "
                   + " and ".join(said) + "; the hands take runs slower there, so the takes are aligned end to end "
                   "(--ends open keeps the open ends)")
+
+
+def _passes_constraints(path: np.ndarray, constraints) -> bool:
+    """Every constraint's row has a cell of ``path`` within its window ``[y - T, y + T]``."""
+    for c in constraints:
+        cols = path[path[:, 0] == c.x, 1]
+        if not np.any(np.abs(cols - c.y) <= c.tolerance):
+            return False
+    return True
 
 
 def _corner_to_corner(path: np.ndarray, n: int, m: int, fps: float) -> bool:

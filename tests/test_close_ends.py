@@ -134,6 +134,7 @@ def test_pins_the_closed_path_must_pass(slow_tail):
     """With pins: closed when the closed path passes every pin's window; left open when a pin in the
     re-aligned block lies off it, and when fixed ends contradict a pin (constraints None)."""
     from splicer.align.band import Constraint
+    from splicer.align.frames import Pin
 
     t = slow_tail
     fake = SimpleNamespace(path=t.path, local_cost=t.p.local_cost, uncovered_cost=t.p.uncovered_cost)
@@ -145,20 +146,23 @@ def test_pins_the_closed_path_must_pass(slow_tail):
     # a pin inside the re-aligned block (the body's last 2 s), 40 hands frames off the closed path
     x = t.n - 10
     y = int(free[free[:, 0] == x, 1].min()) - 40
-    assert _close_ends(fake, t.n, t.m, t.fps, (true_pin, Constraint(x, y, 2))) == (None, None)
-    assert _close_ends(fake, t.n, t.m, t.fps, None) == (None, None)
+    pins = (Pin(mid, true_pin.y, 2, "sync.yaml, line 2: pair 1"), Pin(x, y, 2, "sync.yaml, line 3: pair 2"))
+    guide, note = _close_ends(fake, t.n, t.m, t.fps, (true_pin, Constraint(x, y, 2)), pins)
+    assert guide is None and "at the end" in note and "would miss sync.yaml, line 3: pair 2" in note
+    assert "the ends stay open" in note
+    assert _close_ends(fake, t.n, t.m, t.fps, None, pins) == (None, None)
 
 
-def test_passes_constraints_worked_answers():
+def test_missed_constraint_worked_answers():
     from splicer.align.band import Constraint
-    from splicer.stages.align import _passes_constraints
+    from splicer.stages.align import _missed_constraint
 
     path = np.array([[0, 0], [1, 1], [1, 2], [2, 5]])
-    assert _passes_constraints(path, ())
-    assert _passes_constraints(path, (Constraint(1, 3, 1),))          # column 2 is within 1 of 3
-    assert not _passes_constraints(path, (Constraint(1, 4, 1),))      # columns 1-2 are not within 1 of 4
-    assert not _passes_constraints(path, (Constraint(2, 3, 1),))      # row 2 sits on column 5
-    assert _passes_constraints(path, (Constraint(2, 3, 2), Constraint(0, 0, 0)))
+    assert _missed_constraint(path, ()) is None
+    assert _missed_constraint(path, (Constraint(1, 3, 1),)) is None          # column 2 is within 1 of 3
+    assert _missed_constraint(path, (Constraint(1, 4, 1),)) == Constraint(1, 4, 1)  # columns 1-2 are not within 1 of 4
+    assert _missed_constraint(path, (Constraint(0, 0, 0), Constraint(2, 3, 1))) == Constraint(2, 3, 1)  # row 2 is on 5
+    assert _missed_constraint(path, (Constraint(2, 3, 2), Constraint(0, 0, 0))) is None
 
 
 def test_a_head_of_more_than_ten_seconds_is_looked_at(sample_markers):

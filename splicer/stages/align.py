@@ -322,9 +322,10 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                                  "last; both arms' takes start and end together, so they are aligned end to end "
                                  "(--ends open keeps the open ends)")
                 if why is None:  # hands material left at an end that continues the performance
-                    closed, note = _close_ends(p1, n, m, fps, _fixed_constraints(markers, m))
+                    closed, note = _close_ends(p1, n, m, fps, _fixed_constraints(markers, m), markers.pins)
                     if closed is not None:
                         why, together = _TOGETHER_WHY, closed
+                    if note is not None:
                         log.note(f"{who}: {note}")
                 if why is not None:
                     used = "fixed"
@@ -653,7 +654,7 @@ def _fixed_constraints(markers: SideMarkers, m: int):
         return None
 
 
-def _close_ends(p1, n: int, m: int, fps: float, constraints=()):
+def _close_ends(p1, n: int, m: int, fps: float, constraints=(), pins=()):
     """ends="auto", after an open-ended pass 1 that neither ran corner to corner nor found too short
     an overlap: a corner-to-corner guide when the path covers the whole body (within
     :data:`_TOGETHER_S`) and the hands material it leaves at either end continues the performance
@@ -662,8 +663,9 @@ def _close_ends(p1, n: int, m: int, fps: float, constraints=()):
 
     ``constraints``: the pins as constraints of a pass with fixed ends
     (:func:`_fixed_constraints`); the guide must pass every one within its tolerance (the open
-    path does; a re-aligned end may not), else the ends stay open.  None (a pin that fixed ends
-    contradict): ``(None, None)``.
+    path does; a re-aligned end may not), else the ends stay open, with a note naming the pin
+    (from ``pins``, the side's :class:`~splicer.align.frames.Pin` list) that kept them open:
+    ``(None, note)``.  None (a pin that fixed ends contradict): ``(None, None)``.
 
     The open end is free, so wherever the hands take runs slower than the body near an end, the
     open path stops short of real material (held-out synthetic *speed + imitation*, seed 101: 2.3 s
@@ -694,20 +696,26 @@ def _close_ends(p1, n: int, m: int, fps: float, constraints=()):
         path = np.concatenate([c.path, path[k + 1:]]) if end == "head" else np.concatenate([path[:k], c.path])
         said.append(f"{c.left_hands / fps:.1f} s at the {'start' if end == 'head' else 'end'} (costs "
                     f"{100 * max(z, 0.0):.0f}% of the way to unrelated material)")
-    if not said or not _passes_constraints(path, constraints):
+    if not said:
         return None, None
-    return path, ("the open-ended alignment left hands material that matches the performance: "
-                  + " and ".join(said) + "; the hands take runs slower there, so the takes are aligned end to end "
+    found = "the open-ended alignment left hands material that matches the performance: " + " and ".join(said)
+    missed = _missed_constraint(path, constraints)
+    if missed is not None:
+        named = [p.describe() for p in pins if p.body == missed.x] or [f"the pin at body frame {missed.x}"]
+        return None, (f"{found}, but aligned end to end that end would miss {named[0]}, so the ends stay open "
+                      "(the frames near that end may be off: check the pin, or pin a frame near the end)")
+    return path, (found + "; the hands take runs slower there, so the takes are aligned end to end "
                   "(--ends open keeps the open ends)")
 
 
-def _passes_constraints(path: np.ndarray, constraints) -> bool:
-    """Every constraint's row has a cell of ``path`` within its window ``[y - T, y + T]``."""
+def _missed_constraint(path: np.ndarray, constraints):
+    """The first constraint whose row has no cell of ``path`` within its window ``[y - T, y + T]``,
+    or None when the path passes every one."""
     for c in constraints:
         cols = path[path[:, 0] == c.x, 1]
         if not np.any(np.abs(cols - c.y) <= c.tolerance):
-            return False
-    return True
+            return c
+    return None
 
 
 def _corner_to_corner(path: np.ndarray, n: int, m: int, fps: float) -> bool:

@@ -223,6 +223,9 @@ def _wait(sock: socket.socket) -> int | None:
         signal.signal(signal.SIGTSTP, signal.SIG_DFL)
         os.kill(os.getpid(), signal.SIGTSTP)  # stopped here until SIGCONT
         signal.signal(signal.SIGTSTP, suspend)
+        # running again: resumed, or never stopped (the kernel drops SIGTSTP in a process group no
+        # shell controls, an orphaned one); either way the run goes on with this process
+        resume(signal.SIGCONT, None)
 
     def resume(signum, frame):
         if pid is not None:

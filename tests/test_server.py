@@ -294,8 +294,11 @@ def _state(pid: int) -> str:
 def test_ctrl_z_stops_the_run_with_the_command_and_sigcont_resumes_both(server, long_pair, tmp_path):
     body, hands = long_pair
     server.wait_spare()
+    # its own process group, whose parent (this process) is in the session: a shell's job, which
+    # SIGTSTP stops; in an orphaned group (pytest started by a shell that has exited) it would not
     p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
-                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         process_group=0)
     _wait_running(server, 1)
     time.sleep(0.2)
     (run,) = _ping(server.sock)["run_pids"]
@@ -306,6 +309,24 @@ def test_ctrl_z_stops_the_run_with_the_command_and_sigcont_resumes_both(server, 
     assert (_state(p.pid), _state(run)) == ("T", "T")
     p.send_signal(signal.SIGCONT)
     _, err = p.communicate(timeout=300)
+    assert p.returncode == 0 and err == "", err
+    assert (tmp_path / "out.bvh").stat().st_size > 0
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="reads process states from /proc")
+def test_ctrl_z_where_no_shell_controls_the_command_leaves_the_run_going(server, long_pair, tmp_path):
+    """A command in a process group no shell controls (its own session here, as under setsid or a
+    script whose shell has exited): the kernel drops SIGTSTP, so the command goes on, and its run
+    must too (it was left stopped, and the command waited for it forever)."""
+    body, hands = long_pair
+    server.wait_spare()
+    p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
+                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         start_new_session=True)
+    _wait_running(server, 1)
+    time.sleep(0.2)
+    p.send_signal(signal.SIGTSTP)
+    _, err = p.communicate(timeout=300)  # no SIGCONT is sent
     assert p.returncode == 0 and err == "", err
     assert (tmp_path / "out.bvh").stat().st_size > 0
 

@@ -198,23 +198,39 @@ def test_a_head_of_more_than_ten_seconds_is_looked_at(sample_markers):
     assert _close_ends(fake, n, unrelated.n_frames, fps) == (None, None)
 
 
-def test_a_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end():
-    """The synthetic *speed + imitation* pair of tuning seed 1, whose open end
-    stopped 7.7 s of hands material short (errors up to 1 s over the body's last 2 s, 0.19.0): now
-    end to end, with a note, and the last 2 s within 0.1 s."""
-    from splicer import splice
-    from splicer.evaluation.scenario_types import alignment_error_s
+@pytest.fixture(scope="module")
+def speed_imitation_seed1():
+    """The synthetic *speed + imitation* pair of tuning seed 1, whose open end stopped 7.7 s of hands
+    material short (0.19.0)."""
     from splicer.evaluation.scenarios import make_scenario, scenario
     from splicer.evaluation.synth import make_gesture_take
 
     take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
-    sep = make_scenario(take, scenario("speed+imitation"), rng=np.random.default_rng(1))
-    r = splice(sep.body, sep.hands)
-    assert any("left hands material that matches the performance" in w for w in r.report["warnings"])
-    k = int(2 * sep.body.fps)
+    return make_scenario(take, scenario("speed+imitation"), rng=np.random.default_rng(1))
+
+
+def _spliced_end_to_end(sep, says, **kw):
+    """Splice the scenario pair ``sep`` (``kw``: :func:`splicer.splice`'s); one warning holds every
+    string of ``says`` and every side is aligned end to end.  Returns side -> (hands frames, error
+    in seconds per body frame)."""
+    from splicer import splice
+    from splicer.evaluation.scenario_types import alignment_error_s
+
+    r = splice(sep.body, sep.hands, **kw)
+    assert any(all(x in w for x in says) for w in r.report["warnings"])
+    out = {}
     for s, v in r.sides.items():
         assert r.report["sides"][s]["ends"] == "fixed"
-        e = alignment_error_s(sep, v.hands_frame)
+        out[s] = (v.hands_frame, alignment_error_s(sep, v.hands_frame))
+    return out
+
+
+def test_a_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end(speed_imitation_seed1):
+    """The synthetic pair of tuning seed 1 (errors up to 1 s over the body's last 2 s, 0.19.0): now
+    end to end, with a note, and the last 2 s within 0.1 s."""
+    sep = speed_imitation_seed1
+    k = int(2 * sep.body.fps)
+    for _, e in _spliced_end_to_end(sep, ("left hands material that matches the performance",)).values():
         assert np.nanmean(e[-k:]) < 0.1                         # 0.19.0: 0.57 and 0.66 s
 
 
@@ -223,44 +239,31 @@ def test_a_splice_whose_hands_run_a_third_as_fast_at_the_start_is_aligned_end_to
     body over its first 4.3 s, so the free open begin started 10.1 s of hands material in, just
     over 0.20.0's 10 s limit (errors 0.11 s on average, 3.4 s at the start).  Now end to end,
     with a note, within 0.1 s at the start and 0.05 s on average."""
-    from splicer import splice
-    from splicer.evaluation.scenario_types import alignment_error_s
     from splicer.evaluation.scenarios import make_scenario, scenario
     from splicer.io.bvh import read_bvh
 
     take = read_bvh(shared_motions / "zeggs" / "067_Speech_2_x_1_0.bvh")
     sep = make_scenario(take, scenario("speed+imitation"), rng=np.random.default_rng(4))
-    r = splice(sep.body, sep.hands)
-    assert any("s at the start" in w and "matches the performance" in w for w in r.report["warnings"])
     k = int(4 * sep.body.fps)
-    for s, v in r.sides.items():
-        assert r.report["sides"][s]["ends"] == "fixed"
-        e = alignment_error_s(sep, v.hands_frame)
+    for _, e in _spliced_end_to_end(sep, ("s at the start", "matches the performance")).values():
         assert np.nanmax(e[:k]) < 0.1 and np.nanmean(e) < 0.05      # 0.20.0: 3.4 s and 0.11 s
 
 
-def test_a_pinned_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end():
-    """The synthetic *speed + imitation* pair of tuning seed 1 (above) with two true pins mid-take
-    (tolerance 2): before 0.23.0 a pinned pair kept its open ends and its last 2 s were 0.5-0.7 s
-    off; now closed as without pins, and the pins hold."""
-    from splicer import splice
-    from splicer.evaluation.scenario_types import alignment_error_s
-    from splicer.evaluation.scenarios import make_scenario, scenario
-    from splicer.evaluation.synth import make_gesture_take
+def test_a_pinned_splice_whose_hands_run_slower_at_the_end_is_aligned_end_to_end(speed_imitation_seed1):
+    """The synthetic pair of tuning seed 1 (above) with two true pins mid-take (tolerance 2): before
+    0.23.0 a pinned pair kept its open ends and its last 2 s were 0.5-0.7 s off; now closed as
+    without pins, and the pins hold."""
     from splicer.io.config import parse_config
 
-    take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
-    sep = make_scenario(take, scenario("speed+imitation"), rng=np.random.default_rng(1))
+    sep = speed_imitation_seed1
     n = sep.body.n_frames
     xs = [n // 3, n // 2]
     ys = [int(round(sep.truth[x])) for x in xs]
     text = "pairs:\n" + "".join(f"  - {{body: {x}, hands: {y}}}\n" for x, y in zip(xs, ys)) + "tolerance: 2\n"
-    r = splice(sep.body, sep.hands, config=parse_config(text, "pins.yaml"))
-    assert any("left hands material that matches the performance" in w for w in r.report["warnings"])
     k = int(2 * sep.body.fps)
-    for s, v in r.sides.items():
-        assert r.report["sides"][s]["ends"] == "fixed"
+    sides = _spliced_end_to_end(sep, ("left hands material that matches the performance",),
+                                config=parse_config(text, "pins.yaml"))
+    for hf, e in sides.values():
         for x, y in zip(xs, ys):
-            assert abs(v.hands_frame[x] - y) <= 2 + 1e-9
-        e = alignment_error_s(sep, v.hands_frame)
+            assert abs(hf[x] - y) <= 2 + 1e-9
         assert np.nanmean(e[-k:]) < 0.1

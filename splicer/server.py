@@ -187,7 +187,8 @@ class _Server:
 
     def _wake_or_hang_up(self, key) -> None:
         """The signal pipe readable: empty it (:meth:`_reap` follows).  A command's connection readable:
-        the command went away mid-run, so its run (``key.data``, its pid) gets SIGHUP."""
+        the command went away mid-run, so its run (``key.data``, its pid) gets SIGHUP, and SIGCONT: a run
+        stopped with its command (Ctrl-Z, then the command killed) would keep the SIGHUP pending forever."""
         if key.data == "wake":
             try:
                 while os.read(self.wake_r, 512):
@@ -198,6 +199,7 @@ class _Server:
         self.sel.unregister(key.fileobj)
         try:
             os.kill(key.data, signal.SIGHUP)
+            os.kill(key.data, signal.SIGCONT)
         except ProcessLookupError:
             pass
 

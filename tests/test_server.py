@@ -331,6 +331,30 @@ def test_ctrl_z_where_no_shell_controls_the_command_leaves_the_run_going(server,
     assert (tmp_path / "out.bvh").stat().st_size > 0
 
 
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="reads process states from /proc")
+def test_a_command_killed_while_suspended_does_not_leave_its_run_stopped(server, long_pair, tmp_path):
+    """Ctrl-Z, then the command killed outright (`kill -9 %1`): the server hangs its run up, and a
+    stopped run must also be continued to act on it (it stayed stopped, and the server with it)."""
+    body, hands = long_pair
+    server.wait_spare()
+    p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
+                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         process_group=0)
+    _wait_running(server, 1)
+    time.sleep(0.2)
+    (run,) = _ping(server.sock)["run_pids"]
+    p.send_signal(signal.SIGTSTP)
+    deadline = time.monotonic() + 30
+    while _state(run) != "T" and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert _state(run) == "T"
+    p.kill()
+    p.wait(timeout=60)
+    _wait_running(server, 0)                 # the run holds the command's pipes until it ends
+    p.communicate(timeout=60)
+    assert not (tmp_path / "out.bvh").exists() and temporaries(tmp_path) == []
+
+
 def test_the_commands_resource_limits_hold_in_its_run(server, tmp_path):
     """`ulimit -f` of the command: the run cannot write a file over it (the command's own limit, not the
     server's), so the output is refused as when the command runs by itself; nothing is left."""

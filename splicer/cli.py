@@ -127,6 +127,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mirror-hands", choices=("auto", "yes", "no"), default=None,  
                    help="mirror the hands take (a left-handed export) so its fingers flex toward the palm: auto "
                         "(the default: when its geometry is the other hand's), yes or no")
+    p.add_argument("--body-holds", choices=("on", "off"), default="on",
+                   help="where the body holds still (every arm, at least 0.5 s), keep the time map on one hands "
+                        "frame: on (default) or off")
     p.add_argument("--no-repair", action="store_true", help="keep dropouts/gaps of the hands capture as they are "
                    "(default: repair them before aligning, listed in the report)")  # issue 9 (c-handonly)
     p.add_argument("--hands-markers", metavar="C3D", help="optical markers of the hands session (C3D, TRC, CSV), "
@@ -355,7 +358,8 @@ def main(argv=None) -> int:
                             mirror_hands=args.mirror_hands, repair="off" if args.no_repair else "on",
                             hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
                             offset_s=args.offset, noise_ratio=args.noise_ratio,
-                            position_weight=args.position_weight, pass1_arms=args.pass1_arms)
+                            position_weight=args.position_weight, pass1_arms=args.pass1_arms,
+                            body_holds=args.body_holds)
         after = {}
         with tx:  # every output is staged, and appears only at tx.commit()
             progress("write", 0.0)

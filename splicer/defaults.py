@@ -241,3 +241,9 @@ PASSES = "auto"
 #: clean scenarios, imitation 0.061 / 0.163 -> 0.042 / 0.081 s, *all* 0.151 / 0.604 -> 0.071 /
 #: 0.120 s (README *Accuracy*; benchmarks/HISTORY.md).
 PASS1_ARMS = "both"
+#: Body holds (:mod:`splicer.align.holds`): a stretch of at least :data:`HOLD_MIN_S` seconds in
+#: which every arm of the body moves slower than :data:`HOLD_SPEED_RATIO` times its median speed
+#: (markers smoothed over :data:`HOLD_SMOOTH_S`) is crossed by pass 1 on one hands frame at no cost.
+HOLD_SPEED_RATIO = 0.05
+HOLD_MIN_S = 0.5
+HOLD_SMOOTH_S = 0.05

@@ -39,6 +39,7 @@ class SpliceOptions:
     pass1_arms: str = D.PASS1_ARMS  # "both": one pass 1 weighs both arms (both hands of one hands take share its clock; stages.align.align_pair); "each": each side's own pass 1 (the paper)
     timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
     tempo_var_per_s: float = D.TEMPO_VAR_PER_S  # the time map weighed by the expected path's spread, the tempo (hands s per body s) drifting by this variance per second (stages.transfer.trend_time_maps); 0: the smoothed map alone
+    body_holds: str = "on"  # "on": stretches where the body holds still are crossed on one hands frame (align.holds); "off": the paper's DTW there
     wrist_radius_s: float = D.WRIST_RADIUS_S  # the time map moved by the hand's motion relative to the forearm, within this many seconds (stages.transfer.refine_time_maps); 0: off
     blend_window: int = D.BLEND_WINDOW_FRAMES  # median merge: frames blended each side of a jump
     uncovered_blend_s: float = 0.25  # body frames without hands material: blend in/out over this, seconds
@@ -64,7 +65,7 @@ class SpliceOptions:
 _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("auto", "pass1", "pass2", "both"),
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off"), "pass1_arms": ("both", "each"),
-            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "ends": (None, "auto", "open", "fixed")}
+            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "body_holds": ("on", "off"), "ends": (None, "auto", "open", "fixed")}
 _NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "sign_ramp", "sign_ramp_noisy", "temperature_s",
                 "posterior_radius_s", "timemap_sigma_s", "tempo_var_per_s", "wrist_radius_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
                 "coarse_above_s", "unsure_edge_s", "unmatched_edge_s")

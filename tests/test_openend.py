@@ -24,7 +24,7 @@ def rng():
 
 # ------------------------------------------------------------------ slow reference
 
-def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0):
+def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0, held=None):
     """Full-matrix DTW with open ends, straight from the definition.
 
     Start: (0, 0) at cost 0 (fixed), or (open) any admissible (0, j) at cost 0 or (i, 0) with
@@ -35,7 +35,9 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0):
     (i-1, m-1) -> (i, m-1).
     Ties between candidates: diagonal, up, left, start (a later one must be strictly smaller).
     ``pen`` is added to the up and left candidates; a cell entered from the left costs
-    ``hw * C`` (written ``C + (g + pen + (hw - 1) C)`` as the kernel adds it).
+    ``hw * C`` (written ``C + (g + pen + (hw - 1) C)`` as the kernel adds it).  A held row
+    (``held[i]``, i > 0: the body holds still) is entered only from the cell above, at ``pen``
+    and no local cost, or by a start (at its cell's cost); a +inf cost still forbids a cell.
     """
     n, m = C.shape
     last_start = cons[0].x if cons else n - 1
@@ -47,6 +49,18 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0):
             if not mask[i, j]:
                 continue
             up_ok = i > 0 and not (open_begin and j == 0 and step[i - 1, j] == 3)   # no hold out of a start
+            if held is not None and i > 0 and held[i]:
+                cands = [(g[i - 1, j] + pen - C[i, j] if up_ok and C[i, j] < np.inf else np.inf, 1)]
+                if open_begin and i <= last_start and j == 0:
+                    cands.append((u * i, 3))
+                best, s = np.inf, -1
+                for v, code in cands:
+                    if v < best:
+                        best, s = v, code
+                if s >= 0:
+                    g[i, j] = C[i, j] + best
+                    step[i, j] = s
+                continue
             cands = [(g[i - 1, j - 1] if i > 0 and j > 0 else np.inf, 0),
                      (g[i - 1, j] + pen if up_ok else np.inf, 1),
                      (g[i, j - 1] + pen + ((hw - 1) * C[i, j] if hw != 1 and C[i, j] < np.inf else 0.0)
@@ -141,6 +155,87 @@ def test_open_ends_match_reference(rng, n, m, ends):
             for c in band.constraints:        # pins hold with open ends
                 js = res.path[res.path[:, 0] == c.x, 1]
                 assert js.size and np.abs(js - c.y).max() <= c.tolerance
+
+
+@pytest.mark.parametrize("n,m", [(5, 9), (12, 30), (30, 12), (24, 24)])
+@pytest.mark.parametrize("ends", [(True, False), (False, True), (True, True), (False, False)])
+def test_held_rows_match_reference(rng, n, m, ends):
+    """Rows where the body holds (splicer.align.holds): the kernels, both cost forms and the fused
+    one, against the reference, with pins, penalties and forbidden cells."""
+    ob, oe = ends
+    checked = 0
+    for trial in range(8):
+        C = rng.random((n, m)) * rng.choice([1.0, 3.0])
+        C[rng.random((n, m)) < 0.05] = np.inf if trial % 3 == 0 else C[0, 0]
+        u = float(rng.choice([0.0, 0.2, 2.0]))
+        pen = float(rng.choice([0.0, 0.1, 0.7]))
+        hw = float(rng.choice([1.0, 0.5]))
+        held = np.zeros(n, bool)
+        a = int(rng.integers(1, n - 1))
+        held[a:min(a + int(rng.integers(1, 6)), n)] = True
+        cons = random_constraints(rng, n, m, int(rng.integers(0, 2)), int(rng.integers(0, 3)))
+        try:
+            band = full_band(n, m, cons, open_begin=ob, open_end=oe) if trial % 2 else make_band(n, m, 6.0, cons)
+        except SplicerError:
+            continue
+        mask = band_mask(band)
+        ref_cost, ref_path = ref_open_dtw(C, mask, ob, oe, u, band.constraints, pen, hw, held)
+        if ref_path is None:
+            with pytest.raises(BandError, match="no path of finite cost"):
+                dtw(C, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw,
+                    held_rows=held)
+            continue
+        for cost in (C, as_callable(C, band)):
+            res = dtw(cost, band, open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw,
+                      held_rows=held)
+            assert res.cost == pytest.approx(ref_cost, rel=1e-12, abs=1e-12)
+            np.testing.assert_array_equal(res.path, ref_path)
+        for i, j in res.path:  # a held row is entered from straight above, or the path starts there
+            if held[i] and i > res.path[0, 0]:
+                assert (i - 1, j) in {tuple(c) for c in res.path}
+        checked += 1
+    assert checked >= 3
+
+
+def test_held_rows_fused_kernel_and_bad_input(rng):
+    n, m = 23, 37
+    X, Y = rng.normal(size=(n, 3)), rng.normal(size=(m, 3))
+    band = full_band(n, m, open_begin=True, open_end=True)
+    held = np.zeros(n, bool)
+    held[8:14] = True
+    ref_cost, ref_path = ref_open_dtw(sqdist(X, Y), band_mask(band), True, True, 1.0, (), 0.25, 0.5, held)
+    res = dtw_features(X, Y, band, open_begin=True, open_end=True, uncovered_cost=1.0, step_penalty=0.25,
+                       horizontal_weight=0.5, held_rows=held)
+    assert res.cost == pytest.approx(ref_cost, rel=1e-12)
+    np.testing.assert_array_equal(res.path, ref_path)
+    with pytest.raises(ValueError, match="held_rows"):
+        dtw(sqdist(X, Y), band, held_rows=np.zeros(n))  # not boolean
+    with pytest.raises(ValueError, match="held_rows"):
+        dtw(sqdist(X, Y), band, held_rows=np.zeros(n + 1, bool))
+
+
+def test_a_body_hold_is_crossed_flat():
+    """Worked answer: the true path runs the diagonal to (19, 19), stays on hands frame 19 while
+    the body holds (rows 20-27), then resumes shifted by 8.  Its cells cost 0, every other cell
+    1, except a stretch around the hold (rows 14-34, columns 14-26) where every cell costs 0.5:
+    the arm is still and D1 cannot tell.  A plain DTW crosses that stretch on as few cells as
+    it can and puts the flat part where the tie rule leaves it (rows 14-22, too early); with the
+    hold's rows held (all but its first), the flat part lies on the hold and the path is on the
+    truth from row 20 on (one frame behind before it)."""
+    n, m = 48, 40
+    truth = np.array([i if i <= 19 else (19 if i <= 27 else i - 8) for i in range(n)])
+    C = np.ones((n, m))
+    C[np.arange(n), truth] = 0.0
+    C[14:35, 14:27] = 0.5
+    held = np.zeros(n, bool)
+    held[21:28] = True
+    got = {}
+    for name, h in (("plain", None), ("held", held)):
+        res = dtw(C, full_band(n, m), held_rows=h)
+        got[name] = np.array([max(j for i2, j in res.path if i2 == i) for i in range(n)])
+    np.testing.assert_array_equal(got["held"][20:], truth[20:])
+    assert np.abs(got["held"] - truth).max() <= 1
+    assert got["plain"][14:23].tolist() == [14] * 9 and np.abs(got["plain"] - truth).max() >= 5
 
 
 @pytest.mark.parametrize("ends", [(True, False), (False, True), (True, True)])

@@ -41,18 +41,25 @@ def _paths(start, end, cells):
     return out
 
 
-def _reference(C, band, path, temperature, radius, pen, hw):
+def _reference(C, band, path, temperature, radius, pen, hw, held=None):
     """Row means and spreads from every path in the tube, enumerated: each path's crossing row of
-    every anti-diagonal (a cell's row, or row - 0.5 half-way along a diagonal step over it)."""
+    every anti-diagonal (a cell's row, or row - 0.5 half-way along a diagonal step over it).
+    A held row (``held[i]``, below the path's first row) is entered only from straight above,
+    at ``pen`` and no local cost."""
     tube = tube_band(band, path, radius)
     r0, r1 = int(path[0, 0]), int(path[-1, 0])
     cells = {(i, j) for i in range(r0, r1 + 1) for j in range(tube.lo[i], tube.hi[i] + 1)}
     paths = _paths(tuple(path[0]), tuple(path[-1]), cells)
+    if held is not None:
+        paths = [p for p in paths if all(not (held[i] and i > r0) or (i == a + 1 and j == b)
+                                         for (a, b), (i, j) in zip(p, p[1:]))]
     costs = []
     for p in paths:
         c = C[p[0]]
         for (a, b), (i, j) in zip(p, p[1:]):
-            if i == a + 1 and j == b + 1:
+            if held is not None and held[i] and i > r0:
+                c += pen
+            elif i == a + 1 and j == b + 1:
                 c += C[i, j]
             elif i == a + 1:
                 c += C[i, j] + pen
@@ -92,6 +99,28 @@ def test_posterior_matches_enumeration(rng, pen, hw, temperature, radius):
     assert count > 1
     np.testing.assert_allclose(post.mean, mean, atol=1e-6)  # costs are kept as float32
     np.testing.assert_allclose(post.std, std, atol=1e-6)
+
+
+@pytest.mark.parametrize("pen,hw", [(0.0, 1.0), (0.3, 0.25)])
+@pytest.mark.parametrize("radius", [1, 10])
+def test_posterior_with_held_rows_matches_enumeration(rng, pen, hw, radius):
+    """A body hold (rows 2-3 held): paths cross it straight down for free, in the DTW and in the
+    expected path alike."""
+    n, m = 6, 7
+    C = rng.integers(0, 4, size=(n, m)).astype(float) + rng.uniform(0, 0.3, size=(n, m))
+    band = make_band(n, m, 4.0)
+    held = np.zeros(n, bool)
+    held[2:4] = True
+    res = dtw(C, band, step_penalty=pen, horizontal_weight=hw, held_rows=held)
+    post = path_posterior(_matrix_cost(C), band, res.path, temperature=1.0, radius=radius,
+                          step_penalty=pen, horizontal_weight=hw, held_rows=held)
+    mean, std, count = _reference(C, band, res.path, 1.0, radius, pen, hw, held)
+    assert count > 1
+    np.testing.assert_allclose(post.mean, mean, atol=1e-6)
+    np.testing.assert_allclose(post.std, std, atol=1e-5)  # the sqrt of a float32 variance near 0: 1e-6 off
+    plain = path_posterior(_matrix_cost(C), band, res.path, temperature=1.0, radius=radius,
+                           step_penalty=pen, horizontal_weight=hw)
+    assert np.abs(plain.mean - post.mean).max() > 1e-3  # the hold changes the answer
 
 
 @pytest.mark.parametrize("pieces", [1, 7, 1000])

@@ -18,41 +18,46 @@ from splicer.transfer.trend import _rts, trend_fit, trend_time_map
 MOTIONS = Path(__file__).resolve().parents[1] / "motions"
 
 
-def dense_posterior(y, r, dt, q, v0, p_v0, x_prior):
+def dense_posterior(y, r, dts, q, v0, p_v0, x_prior):
     """The smoother's answer computed the slow way: the states' joint Gaussian prior built
-    frame by frame (s[k+1] = F s[k] + e, e ~ N(0, Q)), then conditioned on the observed
-    frames in one linear solve.  No recursion of the Kalman filter is shared.  Returns the
-    posterior mean and variance of each x[k]."""
+    frame by frame (s[k] = F_k s[k-1] + e, e ~ N(0, Q_k), the step's dt = dts[k]), then
+    conditioned on the observed frames in one linear solve.  No recursion of the Kalman filter
+    is shared.  Returns the posterior mean and variance of each x[k]."""
     n = len(y)
-    F = np.array([[1.0, dt], [0.0, 1.0]])
-    Q = q * np.array([[dt ** 3 / 3, dt ** 2 / 2], [dt ** 2 / 2, dt]])
+    Fs = [np.array([[1.0, d], [0.0, 1.0]]) for d in dts]
+    Qs = [q * np.array([[d ** 3 / 3, d ** 2 / 2], [d ** 2 / 2, d]]) for d in dts]
     P = [np.diag([x_prior, p_v0])]
-    for _ in range(1, n):
-        P.append(F @ P[-1] @ F.T + Q)
+    for k in range(1, n):
+        P.append(Fs[k] @ P[-1] @ Fs[k].T + Qs[k])
     cov = np.zeros((n, n))  # covariance of the hands times x[k]
     for j in range(n):
         Fk = np.eye(2)
         for k in range(j, n):
-            c = (Fk @ P[j])[0, 0]  # cov(x_k, x_j) = [F^(k-j) P_j]_00
+            if k > j:
+                Fk = Fs[k] @ Fk
+            c = (Fk @ P[j])[0, 0]  # cov(x_k, x_j) = [F_k ... F_(j+1) P_j]_00
             cov[j, k] = cov[k, j] = c
-            Fk = F @ Fk
-    mean = y[0] + v0 * dt * np.arange(n)
+    mean = y[0] + v0 * np.concatenate([[0.0], np.cumsum(dts[1:])])
     seen = r >= 0
     S = cov[np.ix_(seen, seen)] + np.diag(r[seen])
     post_var = np.diag(cov) - np.einsum("ij,ji->i", cov[:, seen], np.linalg.solve(S, cov[seen, :]))
     return mean + cov[:, seen] @ np.linalg.solve(S, y[seen] - mean[seen]), post_var
 
 
-@pytest.mark.parametrize("q, dt", [(0.01, 1 / 30), (1.0, 1 / 30), (0.003, 1 / 120)])
-def test_kernel_matches_the_dense_reference(rng, q, dt):
+@pytest.mark.parametrize("q, dt, held", [(0.01, 1 / 30, False), (1.0, 1 / 30, False), (0.003, 1 / 120, False),
+                                         (0.01, 1 / 30, True), (1.0, 1 / 30, True)])
+def test_kernel_matches_the_dense_reference(rng, q, dt, held):
     n = 40
     y = np.cumsum(rng.uniform(0.01, 0.08, n)) + rng.normal(0, 0.02, n)
     r = rng.uniform(1e-5, 1e-2, n) ** 2
     r[rng.random(n) < 0.3] = -1.0  # frames that say nothing
     r[0] = 1e-6
     v0 = 1.3
-    got, got_var = _rts(y, r, dt, q, v0, 1.0)
-    want, want_var = dense_posterior(y, r, dt, q, v0, 1.0, 1e4)
+    dts = np.full(n, dt)
+    if held:
+        dts[12:20] = 0.0  # a body hold: the hands time stands still over these steps
+    got, got_var = _rts(y, r, dts, q, v0, 1.0)
+    want, want_var = dense_posterior(y, r, dts, q, v0, 1.0, 1e4)
     # the dense solve carries the loose prior (1e4 s^2) against millisecond errors: agreement to 1e-6 s
     np.testing.assert_allclose(got, want, rtol=0, atol=5e-6)
     assert np.max(np.abs(got - y)[r >= 0]) > 1e-3  # and the answer is not the data themselves
@@ -60,6 +65,27 @@ def test_kernel_matches_the_dense_reference(rng, q, dt):
     # prior's cancellation leaves the dense solve
     np.testing.assert_allclose(np.sqrt(got_var), np.sqrt(want_var), rtol=1e-3, atol=2e-6)
     assert np.all(got_var[r >= 0] <= r[r >= 0] * (1 + 1e-6))  # never less sure than its own observation
+    if held:
+        np.testing.assert_allclose(got[11:20], got[11], atol=1e-12)  # flat across the hold
+
+
+def test_a_hold_stays_flat_and_the_tempo_resumes():
+    """Worked answer: a map at 2 hands frames per body frame whose body holds over frames 21-30
+    (the observations there wander, unsure); with the hold given, the smoothed map is flat at the
+    hold's entry and the line resumes after it within a tenth of a frame."""
+    n = 60
+    hf = np.concatenate([2.0 * np.arange(21), np.full(10, 40.0), 40.0 + 2.0 * np.arange(1, 30)])
+    sd = np.full(n, 0.005)
+    sd[21:31] = 0.5
+    hf_obs = hf.copy()
+    hf_obs[21:31] = np.linspace(40.0, 60.0, 10)  # the corner cut a DTW path would take
+    held = np.zeros(n, bool)
+    held[21:31] = True
+    fit = trend_fit(hf_obs, sd, body_fps=30, hands_fps=60, tempo_var_per_s=0.01, held=held)
+    np.testing.assert_allclose(fit.hands_frame[20:31], fit.hands_frame[20], atol=1e-9)
+    np.testing.assert_allclose(fit.hands_frame, hf, atol=0.1)
+    plain = trend_fit(hf_obs, sd, body_fps=30, hands_fps=60, tempo_var_per_s=0.01)
+    assert np.max(np.abs(plain.hands_frame - hf)) > 1.0  # without it the corner stays cut
 
 
 def test_a_straight_map_stays_straight():

@@ -185,6 +185,19 @@ def _hweight(horizontal_weight) -> float:
     return w
 
 
+def _held(held_rows, n: int) -> np.ndarray:
+    """Per-row held flags for the kernels (uint8): all 0 (the paper) when None; row 0 is never held."""
+    if held_rows is None:
+        return np.zeros(n, np.uint8)
+    h = np.asarray(held_rows)
+    if h.shape != (n,) or h.dtype != np.bool_:
+        raise ValueError(f"held_rows must be a boolean array of shape ({n},), got {h.dtype} {h.shape}")
+    out = h.astype(np.uint8)
+    if n:
+        out[0] = 0
+    return out
+
+
 def _check_costs(block, what):
     if bool(np.all(block > -np.inf)):  # one pass over the block: False for NaN and for -inf
         return
@@ -194,7 +207,8 @@ def _check_costs(block, what):
 
 
 def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
-        uncovered_cost: float = 0.0, step_penalty: float = 0.0, horizontal_weight: float = 1.0) -> DTWResult:
+        uncovered_cost: float = 0.0, step_penalty: float = 0.0, horizontal_weight: float = 1.0,
+        held_rows=None) -> DTWResult:
     """Banded DTW with path, on given local costs.
 
     Parameters
@@ -230,6 +244,12 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
         a full weight rewards a path for skipping hands material wherever the hands take is
         slower than the body (each extra hands frame costs a whole cell); 0.3 measures better
         (:data:`splicer.openend.OPEN_HORIZONTAL_WEIGHT`).  1 is the paper's recurrence.
+    held_rows : np.ndarray [shape=(n,), dtype=bool], optional
+        Beyond the paper: rows where the body holds still (:func:`splicer.align.holds.held_rows`).
+        A held row is entered only by a ``(i-1, j)`` step (plus ``step_penalty``), at no
+        local cost: the path crosses a hold on one hands frame, as if its rows were not
+        there, and the motion around the hold places it.  Row 0 is never held.  None: no
+        held row, the paper.
 
     Returns
     -------
@@ -256,6 +276,7 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
     sc, ec = end_costs(band, open_begin, open_end, uncovered_cost)
     pen = _penalty(step_penalty)
     hx = _hweight(horizontal_weight) - 1.0
+    held = _held(held_rows, n)
     lo, hi, off, wmax, steps, rows = _workspace(band)
     best = np.array([np.inf, -1.0, -1.0])
     if callable(cost):
@@ -270,20 +291,20 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
             # only the band part of each row is checked (padding is ignored)
             mask = np.arange(wmax)[None, :] <= (hi[i0:i1] - lo[i0:i1])[:, None]
             _check_costs(np.where(mask, block, 0.0), f"rows {i0}..{i1 - 1}")
-            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m)
+            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m)
     else:
         c = np.asarray(cost)
         if c.shape != (n, m):
             raise ValueError(f"cost matrix must have shape (n, m) = ({n}, {m}), got {c.shape}")
         c = np.ascontiguousarray(c, dtype=np.float64)
         _check_costs(c, "matrix")
-        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m)
+        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m)
     return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0)
 
 
 def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: bool = False,
                  open_end: bool = False, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
-                 horizontal_weight: float = 1.0) -> DTWResult:
+                 horizontal_weight: float = 1.0, held_rows=None) -> DTWResult:
     """Banded DTW with path, local cost computed on the fly from feature vectors.
 
     Parameters
@@ -296,7 +317,7 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
         Admissible cells, with ``band.n == n`` and ``band.m == m``.
     metric : {"sqeuclidean", "euclidean"}
         Local cost: squared Euclidean distance (units of X squared) or Euclidean distance.
-    open_begin, open_end, uncovered_cost, step_penalty, horizontal_weight
+    open_begin, open_end, uncovered_cost, step_penalty, horizontal_weight, held_rows
         As :func:`dtw`.
 
     Returns
@@ -330,10 +351,11 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
     sc, ec = end_costs(band, open_begin, open_end, uncovered_cost)
     pen = _penalty(step_penalty)
     hx = _hweight(horizontal_weight) - 1.0
+    held = _held(held_rows, band.n)
     Xc = np.ascontiguousarray(X)
     Yt = np.ascontiguousarray(Y.T)
     lo, hi, off, wmax, steps, rows = _workspace(band)
     crow = np.empty(wmax)
     best = np.array([np.inf, -1.0, -1.0])
-    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx)
+    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx, held)
     return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0)

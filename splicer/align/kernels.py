@@ -99,6 +99,28 @@ def _dp_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen, hx)
 
 
 @njit(cache=True)
+def _dp_held_row(crow, c0, L, H, plo, phi, prev, cur, steps, s0, sc, ob, p0, pen):
+    # A row where the body holds still: entered only by a (i-1, j) step, at no cost (the path
+    # crosses the hold on one hands frame, as if the row were not there), or by a start at
+    # column 0 (sc, with the cell's cost).  ob: as _dp_row (no step (i-1, 0) out of a start cell).
+    # A +inf local cost still forbids its cell.
+    inf = np.inf
+    for k in range(H - L + 1):
+        j = L + k
+        best = inf
+        if plo <= j <= phi and crow[c0 + k] < inf:
+            best = prev[j - plo] + pen
+            if ob and j == 0 and steps[p0] == 3:
+                best = inf
+        s = 1
+        if j == 0 and sc + crow[c0] < best:  # j == 0: k == 0
+            best = sc + crow[c0]
+            s = 3
+        cur[k] = best
+        steps[s0 + k] = s
+
+
+@njit(cache=True)
 def _dp_first_row(crow, c0, w, cur, steps, sc, pen, hx):
     # Row 0: columns lo[0] .. lo[0] + w - 1.  The path starts at the first cell (fixed begin:
     # (0, 0)) or, with sc finite (open begin), at any cell where sc is strictly below the
@@ -137,16 +159,20 @@ def _scan_end(cur, w, ec, i, L, best, steps, s0, last_row, m):
 
 
 @njit(cache=True)
-def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, m):
+def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m):
     # Rows i0..i1-1 from cost block C (row r = i - i0); column j of row i is at C[r, j] if
     # absolute else C[r, j - lo[i]].  rows: (2, width) gamma buffer indexed by row parity.
     # sc[i]: start cost in row i (+inf: none; row 0 always starts); ec[i]: end cost (+inf: none).
+    # held[i]: row i is a body hold (_dp_held_row).
     for i in range(i0, i1):
         r = i - i0
         c0 = lo[i] if absolute else 0
         cur = rows[i & 1]
         if i == 0:
             _dp_first_row(C[r], c0, hi[0] - lo[0] + 1, cur, steps, sc[0], pen, hx)
+        elif held[i]:
+            _dp_held_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
+                         steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
         else:
             _dp_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
                     steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen, hx)
@@ -156,7 +182,7 @@ def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, h
 
 
 @njit(cache=True)
-def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx):
+def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx, held):
     # Whole DP with local cost from features: X (n, d), Yt (d, m) (Y transposed);
     # metric 0 squared Euclidean, 1 Euclidean.  Start / end costs as _dp_rows.
     n, d = X.shape
@@ -177,6 +203,9 @@ def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, 
         cur = rows[i & 1]
         if i == 0:
             _dp_first_row(crow, 0, w, cur, steps, sc[0], pen, hx)
+        elif held[i]:
+            _dp_held_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
+                         off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
         else:
             _dp_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
                     off[i], sc[i], sc[0] < np.inf, off[i - 1], pen, hx)

@@ -17,6 +17,7 @@ from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from ..errors import BandError
 from ..rig.markers import Markers
 from .costcache import CACHE_BYTES, CachedBandCost
+from .holds import hold_band
 from .costs import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
 from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT, UNCOVERED_QUANTILE, coarse_rate,
                       d1_sample, offset_band, uncovered_penalty)
@@ -97,6 +98,7 @@ class PassResult:
     arms: int = 1
     arm_costs: tuple = ()
     arm_uncovered: tuple = ()
+    held_rows: object = None  # np.ndarray (n,) bool or None: the full-rate DTW's held rows (body holds)
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
@@ -198,8 +200,9 @@ def arm_alone(p: PassResult, k: int) -> np.ndarray:
                                open_end=True)
         except BandError:
             band = p.band
+    band, held = hold_band(band, p.held_rows)
     return _run(p.arm_costs[k], band, None, open_begin=True, open_end=True, uncovered_cost=u,
-                step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight).path
+                step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight, held_rows=held).path
 
 
 def arm_paths(p: PassResult, progress=None, *, own_penalty: bool = False) -> list:
@@ -230,7 +233,7 @@ def _arm_path(p: PassResult, k: int, *, own_penalty: bool, progress=None) -> np.
         u = p.arm_uncovered[k] if own_penalty and k < len(p.arm_uncovered) else p.uncovered_cost
         ends = dict(open_begin=True, open_end=True, uncovered_cost=u)
     return _run(p.arm_costs[k], p.band, progress, step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight,
-                **ends).path
+                held_rows=p.held_rows, **ends).path
 
 
 def _arms_sample(arms: list, features: list, theta: str) -> np.ndarray:
@@ -259,7 +262,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           uncovered_quantile: float = UNCOVERED_QUANTILE, uncovered_cost: float | None = None,
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
           horizontal_weight: float | None = None, guide: np.ndarray | None = None,
-          cache_bytes: int = CACHE_BYTES, position_weight: float = 0.0, others=()) -> PassResult:
+          cache_bytes: int = CACHE_BYTES, position_weight: float = 0.0, others=(),
+          held_rows=None) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -330,6 +334,10 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         take).  The local cost is then the mean of every arm's (``body``/``hands`` with
         ``smooth_s`` and ``position_weight`` being the first), in every DTW of the pass and in
         the uncovered penalty.  Empty (the default): this arm alone.
+    held_rows : np.ndarray [shape=(n,), dtype=bool], optional
+        Beyond the paper: body frames where the body holds still
+        (:func:`splicer.align.holds.held_rows`); the full-rate DTW crosses them on one hands
+        frame at no cost (:func:`splicer.align.dtw.dtw`).  None: none, the paper.
 
     Returns
     -------
@@ -352,7 +360,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                            coarse_width=coarse_width, progress=progress, offset_s=offset_s,
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
                            max_coarse_cells=max_coarse_cells, step_penalty=step_penalty, cache_bytes=cache_bytes,
-                           horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight)
+                           horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight,
+                           held_rows=held_rows)
     hw = 1.0 if horizontal_weight is None else float(horizontal_weight)
     n, m = body.n_frames, hands.n_frames
     notes: tuple = ()
@@ -378,17 +387,18 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                      f"band of {width:g} frames instead (a long take may drift out of it: check the pins)",)
     else:
         band = make_band(n, m, width, constraints)
+    band, held_rows = hold_band(band, held_rows)
     d1, each = _arms_cost(arms, _arm_features(arms, dead_zone, sign_ramp), theta)
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
-    res = _run(kept, band, progress, step_penalty=step_penalty, horizontal_weight=hw)
+    res = _run(kept, band, progress, step_penalty=step_penalty, horizontal_weight=hw, held_rows=held_rows)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw,
                       notes=notes, kept_cost=kept, position_weight=float(position_weight), arms=len(arms),
-                      arm_costs=each)
+                      arm_costs=each, held_rows=held_rows)
 
 
 def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
                 offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight,
-                cache_bytes):
+                cache_bytes, held_rows=None):
     body, hands, position_weight = arms[0].body, arms[0].hands, arms[0].position_weight
     n, m = body.n_frames, hands.n_frames
     cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
@@ -435,14 +445,15 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
                      "matrix at full rate instead",)
     else:
         band = cband
+    band, held_rows = hold_band(band, held_rows)
     d1, each = (d1c, ceach) if carms is arms else _arms_cost(arms, _arm_features(arms, dead_zone, sign_ramp), theta)
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
     second = None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
     res = _run(kept, band, second, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
-               horizontal_weight=horizontal_weight)
+               horizontal_weight=horizontal_weight, held_rows=held_rows)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
                       float(horizontal_weight), located, body.fps, notes, kept, float(position_weight), len(arms),
-                      each, arm_u)
+                      each, arm_u, held_rows)
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from .band import Band
+from .dtw import _held
 from .paths import path_median
 
 __all__ = ["Posterior", "expected_frames", "path_posterior", "tube_band"]
@@ -99,7 +100,7 @@ def _lae(a, b):
 
 
 @njit(cache=True)
-def _forward(C, lo, hi, off, r0, r1, inv_t, pen, hx, alpha, shift):
+def _forward(C, lo, hi, off, r0, r1, inv_t, pen, hx, held, alpha, shift):
     # alpha[off[i] + k] + shift[i]: log of the summed weight of the partial paths from the start
     # cell (r0, lo[r0]) to (i, lo[i] + k), the cell's own cost included.  Each row is stored
     # as float32 relative to its largest value (shift[i], float64), so a long take's sums keep
@@ -114,7 +115,17 @@ def _forward(C, lo, hi, off, r0, r1, inv_t, pen, hx, alpha, shift):
     for i in range(r0, r1 + 1):
         L, H, o = lo[i], hi[i], off[i]
         top = ninf
+        if i > r0 and held[i]:  # a body hold: entered only from the cell above, at no cost
+            pL, pH = lo[i - 1], hi[i - 1]
+            for k in range(H - L + 1):
+                j = L + k
+                v = prev[j - pL] - p if pL <= j <= pH and C[o + k] < np.inf else ninf
+                cur[k] = v
+                if v > top:
+                    top = v
         for k in range(H - L + 1):
+            if i > r0 and held[i]:
+                break
             j = L + k
             c = C[o + k]
             if c == np.inf:
@@ -145,7 +156,7 @@ def _forward(C, lo, hi, off, r0, r1, inv_t, pen, hx, alpha, shift):
 
 
 @njit(cache=True)
-def _backward(C, lo, hi, off, r0, r1, a, b, inv_t, pen, hx, alpha, shift, s0, s1, s2, nxt):
+def _backward(C, lo, hi, off, r0, r1, a, b, inv_t, pen, hx, held, alpha, shift, s0, s1, s2, nxt):
     # beta (two rows): log of the summed weight of the completions from (i, j) to the end
     # cell (r1, hi[r1]), that cell's cost excluded.  The probabilities of the cells
     # (exp(alpha + beta - Z)) and of the diagonal steps are added up per anti-diagonal
@@ -166,20 +177,24 @@ def _backward(C, lo, hi, off, r0, r1, a, b, inv_t, pen, hx, alpha, shift, s0, s1
             acc = ninf
             if i == r1 and k == w - 1:
                 acc = 0.0
-            if k < w - 1:
+            if k < w - 1 and not (held[i] and i > r0):
                 c = C[o + k + 1]
                 if c < np.inf:
                     acc = _lae(acc, cur[k + 1] - p - (1.0 + hx) * c * inv_t)
             if i < r1:
                 nL, nH, no = lo[i + 1], hi[i + 1], off[i + 1]
-                if nL <= j + 1 <= nH:
-                    c = C[no + j + 1 - nL]
-                    if c < np.inf:
-                        acc = _lae(acc, nxt[j + 1 - nL] - c * inv_t)
-                if nL <= j <= nH:
-                    c = C[no + j - nL]
-                    if c < np.inf:
-                        acc = _lae(acc, nxt[j - nL] - p - c * inv_t)
+                if held[i + 1]:  # the next row is a body hold: only straight down, at no cost
+                    if nL <= j <= nH and C[no + j - nL] < np.inf:
+                        acc = _lae(acc, nxt[j - nL] - p)
+                else:
+                    if nL <= j + 1 <= nH:
+                        c = C[no + j + 1 - nL]
+                        if c < np.inf:
+                            acc = _lae(acc, nxt[j + 1 - nL] - c * inv_t)
+                    if nL <= j <= nH:
+                        c = C[no + j - nL]
+                        if c < np.inf:
+                            acc = _lae(acc, nxt[j - nL] - p - c * inv_t)
             cur[k] = acc
         for k in range(w):
             j = L + k
@@ -189,7 +204,7 @@ def _backward(C, lo, hi, off, r0, r1, a, b, inv_t, pen, hx, alpha, shift, s0, s1
                 s0[i + j] += q
                 s1[i + j] += q * i
                 s2[i + j] += q * i * i
-            if i > r0:
+            if i > r0 and not held[i]:
                 pL, pH, po = lo[i - 1], hi[i - 1], off[i - 1]
                 c = C[o + k]
                 if pL <= j - 1 <= pH and c < np.inf:
@@ -237,8 +252,8 @@ def _rows_from_diagonals(s0, s1, s2, d0: int, d1: int, n: int) -> tuple[np.ndarr
 
 
 def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, radius: int,
-                   step_penalty: float = 0.0, horizontal_weight: float = 1.0, chunk_rows: int = 2048,
-                   progress=None) -> Posterior:
+                   step_penalty: float = 0.0, horizontal_weight: float = 1.0, held_rows=None,
+                   chunk_rows: int = 2048, progress=None) -> Posterior:
     """Expected column and its spread for every row, over the paths near ``path``.
 
     Parameters
@@ -253,7 +268,7 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
         Cost units per e-fold of probability, > 0.  Small: the best path alone.
     radius : int
         Columns each side of the best path that alternative paths may use, >= 0.
-    step_penalty, horizontal_weight : float
+    step_penalty, horizontal_weight, held_rows
         The pass's own (:func:`splicer.align.dtw.dtw`).
     progress : callable, optional
         ``progress(fraction)`` as the tube's costs are computed (up to 0.5), after the forward
@@ -289,7 +304,8 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
     shift = np.zeros(band.n)
     inv_t = 1.0 / float(temperature)
     hx = float(horizontal_weight) - 1.0
-    _forward(C, tube.lo, tube.hi, off, r0, r1, inv_t, float(step_penalty), hx, alpha, shift)
+    held = _held(held_rows, band.n)
+    _forward(C, tube.lo, tube.hi, off, r0, r1, inv_t, float(step_penalty), hx, held, alpha, shift)
     if progress is not None:
         progress(0.6)
     nd = band.n + band.m
@@ -298,7 +314,7 @@ def path_posterior(cost, band: Band, path: np.ndarray, *, temperature: float, ra
     step = -(-(r1 + 1 - r0) // BACKWARD_PIECES)  # rows per piece (the backward sweep takes seconds on an hour)
     for a in range(r1, r0 - 1, -step):
         b = max(a - step + 1, r0)
-        _backward(C, tube.lo, tube.hi, off, r0, r1, a, b, inv_t, float(step_penalty), hx, alpha, shift,
+        _backward(C, tube.lo, tube.hi, off, r0, r1, a, b, inv_t, float(step_penalty), hx, held, alpha, shift,
                   s0, s1, s2, nxt)
         if progress is not None:
             progress(0.6 + 0.4 * (r1 + 1 - b) / (r1 + 1 - r0))
@@ -330,5 +346,6 @@ def expected_frames(p, *, temperature: float, radius: int, progress=None) -> tup
         return path_median(p.path, p.band.n), None
     cost = getattr(p, "kept_cost", None) or p.local_cost  # pass 1's kept float32 costs: the tube stores float32
     post = path_posterior(cost, p.band, p.path, temperature=temperature, radius=radius,
-                          step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight, progress=progress)
+                          step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight,
+                          held_rows=getattr(p, "held_rows", None), progress=progress)
     return post.mean, post

@@ -232,6 +232,20 @@ def _evidence(bmk, hmk, extra: list, ends: str, smooth_s: float, position_weight
         return None
 
 
+def _body_holds(arms, fps: float, opts: SpliceOptions) -> tuple:
+    """Stretches where the body holds still on every arm given (:func:`splicer.align.holds.body_holds`);
+    none with ``opts.body_holds == "off"``."""
+    from ..align.holds import body_holds
+
+    if opts.body_holds == "off":
+        return ()
+    pts = []
+    for a in arms:
+        b = a.body
+        pts.append(b.points - b.shoulder[:, None, :] if b.shoulder.ndim == 2 else b.points)
+    return body_holds(pts, fps)
+
+
 def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, others: tuple = (),
            ends: str = "auto", offset_s: float | None = None, guide: np.ndarray | None = None,
            smooth_s: float | None = None, noisy: bool | None = None, other_smooth: tuple = ()) -> Located:
@@ -258,6 +272,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
     from ..align.band import band_frames
     from ..align.band_width import pass_widths
     from ..align.posterior import expected_frames
+    from ..align.holds import held_rows
 
     log = log or Log()
     sides = [markers.side] + [o.side for o in others]
@@ -281,6 +296,13 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
     # a second performance's noise (not optical markers' measured noise: measured worse there)
     soft = noisy and not markers.noise and not any(o.noise for o in others)
 
+    holds = _body_holds([markers] + list(others), fps, opts)
+    held = held_rows(n, holds)
+    if holds:
+        where = ", ".join(f"{a}-{b} ({a / fps:.1f}-{b / fps:.1f} s)" for a, b in holds)
+        log.note(f"{who}: the body holds still over frames {where}: the time map stays on one hands frame "
+                 "there (the hands performer went on meanwhile, or held too)")
+
     def run_pass1(mode: str, guide_path=None):
         open_ends = mode == "open"
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
@@ -294,7 +316,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                   uncovered_quantile=opts.uncovered_quantile,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
                   coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
-                  guide=None if open_ends else guide_path, others=arms,
+                  guide=None if open_ends else guide_path, others=arms, held_rows=held,
                   progress=lambda f: log.progress(f"{label}: pass 1", f))
         return p, w1, w2, cons
 

@@ -41,11 +41,12 @@ _X_PRIOR = 1e4
 
 
 @njit(cache=True)
-def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against a dense Gaussian solution (tests/test_trend.py)
+def _rts(y, r, dts, q, v0, p_v0):  # pragma: no cover - compiled; tested against a dense Gaussian solution (tests/test_trend.py)
     """Rauch-Tung-Striebel smoother of a local-linear-trend model (plain loops).
 
     ``y[i]`` observed with variance ``r[i]`` (``r[i] < 0``: not observed); state (x, v),
-    ``x[i+1] = x[i] + dt v[i]``, ``v`` a random walk of variance density ``q``.  Returns the
+    ``x[i+1] = x[i] + dt v[i]`` with ``dt = dts[i+1]`` (0 across a body hold: the hands time
+    stands still), ``v`` a random walk of variance density ``q``.  Returns the
     smoothed ``x`` and its variance.  The prior at index 0 is ``x = y[0]`` (loosely:
     ``_X_PRIOR``), ``v = v0``."""
     n = y.shape[0]
@@ -55,11 +56,12 @@ def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against 
     pp = np.empty((n, 3))  # predicted covariance
     xp = np.empty(n)
     vp = np.empty(n)
-    q00, q01, q11 = q * dt * dt * dt / 3.0, q * dt * dt / 2.0, q * dt
     x, v = y[0], v0
     a, b, c = _X_PRIOR, 0.0, p_v0
     for i in range(n):
         if i > 0:
+            dt = dts[i]
+            q00, q01, q11 = q * dt * dt * dt / 3.0, q * dt * dt / 2.0, q * dt
             x = x + dt * v
             a, b, c = a + 2.0 * dt * b + dt * dt * c + q00, b + dt * c + q01, c + q11
         xp[i], vp[i] = x, v
@@ -77,6 +79,7 @@ def _rts(y, r, dt, q, v0, p_v0):  # pragma: no cover - compiled; tested against 
     ps = pf.copy()  # smoothed covariance
     for i in range(n - 2, -1, -1):
         # C = Pf[i] F^T inv(Pp[i+1]), F = [[1, dt], [0, 1]]
+        dt = dts[i + 1]
         f00 = pf[i, 0] + dt * pf[i, 1]
         f01 = pf[i, 1]
         f10 = pf[i, 1] + dt * pf[i, 2]
@@ -123,9 +126,11 @@ class TrendFit:
 
 
 def trend_fit(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var_per_s: float,
-              floor_s: float = ERROR_FLOOR_S) -> TrendFit:
+              floor_s: float = ERROR_FLOOR_S, held=None) -> TrendFit:
     """The time map's most likely course given each frame's spread and a smooth tempo, with its
-    standard deviation (arguments as :func:`trend_time_map`).
+    standard deviation (arguments as :func:`trend_time_map`; ``held``: body frames where the
+    body holds still, :func:`splicer.align.holds.held_rows`, across which the hands time stands
+    still and the tempo does not drift).
 
     Examples
     --------
@@ -150,6 +155,12 @@ def trend_fit(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var
     out = np.full(hf.shape, np.nan)
     sd_out = np.full(hf.shape, np.nan)
     dt = 1.0 / float(body_fps)
+    dts = np.full(hf.shape, dt)
+    if held is not None:
+        h = np.asarray(held, dtype=bool)
+        if h.shape != hf.shape:
+            raise ValueError(f"held must have shape {hf.shape}, got {h.shape}")
+        dts[h] = 0.0
     for a, b in zip(*true_runs(np.isfinite(hf))):  # each run [a, b) of covered frames on its own
         y = hf[a:b] / float(hands_fps)
         e = sd_all[a:b]
@@ -161,7 +172,7 @@ def trend_fit(hands_frame, sd_s, *, body_fps: float, hands_fps: float, tempo_var
         sd = np.maximum(np.where(seen, e, 1.0), floor_s)
         r = np.where(seen, sd * sd, -1.0)
         v0 = (y[-1] - y[0]) / ((b - a - 1) * dt)
-        xs, var = _rts(y, r, dt, float(tempo_var_per_s), v0, _TEMPO_PRIOR ** 2)
+        xs, var = _rts(y, r, dts[a:b], float(tempo_var_per_s), v0, _TEMPO_PRIOR ** 2)
         out[a:b] = xs * float(hands_fps)
         sd_out[a:b] = np.sqrt(np.maximum(var, 0.0))
     return TrendFit(hands_frame=out, sd_s=sd_out, shift_s=np.abs(out - hf) / float(hands_fps))

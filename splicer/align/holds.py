@@ -40,7 +40,8 @@ def arm_stillness(points: np.ndarray, fps: float, *, smooth_s: float = HOLD_SMOO
     -------
     np.ndarray [shape=(n,)]
         Mean speed over the markers divided by its median over the frames; 0 everywhere for a
-        take that never moves.
+        take whose median speed is 0 (still over half its frames): nothing to measure holds by,
+        and :func:`body_holds` then finds none.
 
     Examples
     --------

@@ -22,7 +22,7 @@ __all__ = ["band_image", "figure", "plot_alignment"]
 
 _MAX_PIXELS = 700
 _WHITE, _RED, _ORANGE, _BLACK, _GRAY = (255, 255, 255), (255, 0, 0), (255, 165, 0), (0, 0, 0), (128, 128, 128)
-_TAB_GRAY, _TAB_RED = (127, 127, 127), (214, 39, 40)
+_TAB_GRAY, _TAB_RED, _TAB_BLUE = (127, 127, 127), (214, 39, 40), (31, 119, 180)
 _CELL_BUDGET = 4_000_000  # local costs computed at once for a band image (32 MB of float64)
 
 
@@ -101,7 +101,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
 
     One row per side: each pass's local costs inside its band (one image each) with the band's
     edges, the chosen path and the pins, then the time map with the frames that have no hands
-    material and the low-confidence frames shaded.
+    material, the low-confidence frames and the body's holds (:mod:`splicer.align.holds`) shaded.
 
     Parameters
     ----------
@@ -175,6 +175,11 @@ def figure(result, *, dpi: int = 110) -> Figure:
             low = _ranges(np.isfinite(conf.est_error_s) & (conf.est_error_s > LOW_CONFIDENCE_S))
             if low:
                 ax.axvspans(low, _TAB_RED, 0.2, f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
+        held = getattr(s.pass1, "held_rows", None)  # body holds (align.holds): the entry row and the held ones
+        if held is not None and np.any(held):
+            rows = np.asarray(held, dtype=bool).copy()
+            rows[:-1] |= rows[1:]
+            ax.axvspans(_ranges(rows), _TAB_BLUE, 0.15, "body holds still")
         ax.errorbar([p.body for p in s.pins], [p.hands for p in s.pins], [p.tolerance for p in s.pins], _ORANGE)
         ax.title, ax.title_size = f"{s.side}: time map", 9
         ax.xlabel, ax.ylabel = "body frame", "hands-file frame"

@@ -97,3 +97,19 @@ def test_a_body_pause_is_crossed_flat_and_reported(paused):
             assert abs(a - p) <= 5 and abs(b - (p + kb)) <= 5
             assert any(f"holds still over frames {a}-{b}" in w for w in d["warnings"])
         assert err["on"] < 0.1 and err["on"] < 0.5 * err["off"], err
+
+
+def test_the_plot_shades_the_holds(paused):
+    """The time map's panel shades each hold (its entry row and its held rows) once, in its own group."""
+    from splicer import splice
+    from splicer.plot import figure
+
+    sep = paused[0]
+    r = splice(sep.body, sep.hands)
+    (a, b), = r.report.to_dict()["sides"]["right"]["pass1"]["body_holds"]
+    fig = figure(r, dpi=40)
+    for ax in (ax for ax in fig.axes if ax.title.endswith("time map")):
+        shades = [sp for sp in ax.spans if sp.label == "body holds still"]
+        assert len(shades) == 1 and shades[0].ranges == ((a - 0.5, b + 0.5),)
+    r = splice(sep.body, sep.hands, body_holds="off")
+    assert not [sp for ax in figure(r, dpi=40).axes for sp in ax.spans if sp.label == "body holds still"]

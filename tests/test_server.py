@@ -290,23 +290,34 @@ def _state(pid: int) -> str:
         return f.read().rsplit(")", 1)[1].split()[0]
 
 
-@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="reads process states from /proc")
-def test_ctrl_z_stops_the_run_with_the_command_and_sigcont_resumes_both(server, long_pair, tmp_path):
+def _wait_stopped(*pids: int, timeout: float = 30) -> tuple:
+    """The processes' states once all are stopped ("T"), or as they are after ``timeout`` seconds."""
+    deadline = time.monotonic() + timeout
+    while any(_state(p) != "T" for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    return tuple(_state(p) for p in pids)
+
+
+def _long_splice(server, long_pair, tmp_path, **popen):
+    """``splice`` of the long pair through the server, started and running in its run (``popen``:
+    how the command's process group is set up)."""
     body, hands = long_pair
     server.wait_spare()
-    # its own process group, whose parent (this process) is in the session: a shell's job, which
-    # SIGTSTP stops; in an orphaned group (pytest started by a shell that has exited) it would not
     p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
-                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         process_group=0)
+                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen)
     _wait_running(server, 1)
     time.sleep(0.2)
+    return p
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="reads process states from /proc")
+def test_ctrl_z_stops_the_run_with_the_command_and_sigcont_resumes_both(server, long_pair, tmp_path):
+    # its own process group, whose parent (this process) is in the session: a shell's job, which
+    # SIGTSTP stops; in an orphaned group (pytest started by a shell that has exited) it would not
+    p = _long_splice(server, long_pair, tmp_path, process_group=0)
     (run,) = _ping(server.sock)["run_pids"]
     p.send_signal(signal.SIGTSTP)
-    deadline = time.monotonic() + 30
-    while (_state(p.pid), _state(run)) != ("T", "T") and time.monotonic() < deadline:
-        time.sleep(0.02)
-    assert (_state(p.pid), _state(run)) == ("T", "T")
+    assert _wait_stopped(p.pid, run) == ("T", "T")
     p.send_signal(signal.SIGCONT)
     _, err = p.communicate(timeout=300)
     assert p.returncode == 0 and err == "", err
@@ -318,13 +329,7 @@ def test_ctrl_z_where_no_shell_controls_the_command_leaves_the_run_going(server,
     """A command in a process group no shell controls (its own session here, as under setsid or a
     script whose shell has exited): the kernel drops SIGTSTP, so the command goes on, and its run
     must too (it was left stopped, and the command waited for it forever)."""
-    body, hands = long_pair
-    server.wait_spare()
-    p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
-                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         start_new_session=True)
-    _wait_running(server, 1)
-    time.sleep(0.2)
+    p = _long_splice(server, long_pair, tmp_path, start_new_session=True)
     p.send_signal(signal.SIGTSTP)
     _, err = p.communicate(timeout=300)  # no SIGCONT is sent
     assert p.returncode == 0 and err == "", err
@@ -335,19 +340,10 @@ def test_ctrl_z_where_no_shell_controls_the_command_leaves_the_run_going(server,
 def test_a_command_killed_while_suspended_does_not_leave_its_run_stopped(server, long_pair, tmp_path):
     """Ctrl-Z, then the command killed outright (`kill -9 %1`): the server hangs its run up, and a
     stopped run must also be continued to act on it (it stayed stopped, and the server with it)."""
-    body, hands = long_pair
-    server.wait_spare()
-    p = subprocess.Popen([*SPLICE, str(body), str(hands), "-o", str(tmp_path / "out.bvh"), "-q"],
-                         env=_env(server.sock), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         process_group=0)
-    _wait_running(server, 1)
-    time.sleep(0.2)
+    p = _long_splice(server, long_pair, tmp_path, process_group=0)
     (run,) = _ping(server.sock)["run_pids"]
     p.send_signal(signal.SIGTSTP)
-    deadline = time.monotonic() + 30
-    while _state(run) != "T" and time.monotonic() < deadline:
-        time.sleep(0.02)
-    assert _state(run) == "T"
+    assert _wait_stopped(run) == ("T",)
     p.kill()
     p.wait(timeout=60)
     _wait_running(server, 0)                 # the run holds the command's pipes until it ends

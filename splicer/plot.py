@@ -118,6 +118,7 @@ def plot_alignment(result, path: str | os.PathLike, *, dpi: int = 110) -> None:
 def figure(result, *, dpi: int = 110) -> Figure:
     """The alignment plot of ``result`` as a scene, not yet drawn: :func:`plot_alignment` draws
     and writes it; tests read its axes (:class:`splicer._chart.Axes`)."""
+    from .align.holds import hold_ranges
     from .align.passes import hold_ends, path_median, remap_constraints
     from .pipeline import LOW_CONFIDENCE_S
 
@@ -175,11 +176,9 @@ def figure(result, *, dpi: int = 110) -> Figure:
             low = _ranges(np.isfinite(conf.est_error_s) & (conf.est_error_s > LOW_CONFIDENCE_S))
             if low:
                 ax.axvspans(low, _TAB_RED, 0.2, f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
-        held = getattr(s.pass1, "held_rows", None)  # body holds (align.holds): the entry row and the held ones
-        if held is not None and np.any(held):
-            rows = np.asarray(held, dtype=bool).copy()
-            rows[:-1] |= rows[1:]
-            ax.axvspans(_ranges(rows), _TAB_BLUE, 0.15, "body holds still")
+        holds = hold_ranges(getattr(s.pass1, "held_rows", None))  # align.holds
+        if holds:
+            ax.axvspans([(a - 0.5, b + 0.5) for a, b in holds], _TAB_BLUE, 0.15, "body holds still")
         ax.errorbar([p.body for p in s.pins], [p.hands for p in s.pins], [p.tolerance for p in s.pins], _ORANGE)
         ax.title, ax.title_size = f"{s.side}: time map", 9
         ax.xlabel, ax.ylabel = "body frame", "hands-file frame"

@@ -21,7 +21,7 @@ import numpy as np
 from ..defaults import HOLD_MIN_S, HOLD_SMOOTH_S, HOLD_SPEED_RATIO
 from ..runs import true_runs
 
-__all__ = ["arm_stillness", "body_holds", "held_rows"]
+__all__ = ["arm_stillness", "body_holds", "held_rows", "hold_ranges", "hold_band"]
 
 
 def arm_stillness(points: np.ndarray, fps: float, *, smooth_s: float = HOLD_SMOOTH_S) -> np.ndarray:
@@ -123,6 +123,20 @@ def held_rows(n: int, holds) -> np.ndarray | None:
     for a, b in holds:
         h[int(a) + 1:int(b) + 1] = True
     return h
+
+
+def hold_ranges(held) -> tuple:
+    """The holds back from their held rows (:func:`held_rows`' inverse): ``((first, last), ...)``,
+    each from the row the path enters it on to its last held row; empty for None.
+
+    Examples
+    --------
+    >>> hold_ranges(held_rows(8, [(1, 3), (5, 6)]))
+    ((1, 3), (5, 6))
+    """
+    if held is None:
+        return ()
+    return tuple((int(a) - 1, int(b) - 1) for a, b in zip(*true_runs(np.asarray(held, dtype=bool))))
 
 
 def hold_band(band, held):

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..defaults import COVERAGE_EDGE_S
-from ..runs import true_runs
+from ..align.holds import hold_ranges
 from ..model.motion import Motion
 from ..options import SpliceOptions
 from ..report import Report, SideReport
@@ -139,8 +139,7 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, ext
         if p.name == "pass1":
             info["position_weight"] = p.position_weight
             info["arms"] = p.arms  # 2: one pass 1 for both hands (stages.align.arms_together)
-            held = getattr(p, "held_rows", None)  # body holds (align.holds): [entry row, last held row]
-            info["body_holds"] = [] if held is None else [[int(a) - 1, int(b) - 1] for a, b in zip(*true_runs(held))]
+            info["body_holds"] = [list(h) for h in hold_ranges(getattr(p, "held_rows", None))]  # align.holds
         return info
 
     side_reports = {}

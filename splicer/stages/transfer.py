@@ -102,10 +102,9 @@ def trend_time_maps(sides: dict, opts: SpliceOptions) -> dict:
         # the spread, not the estimated error: it is a smooth function of the input (the risk
         # model's signals include each arm's best path, which a float32 round trip can flip)
         sd_s = np.asarray(conf.spread_frames, dtype=np.float64) / sp.body_fps  # common frames: the body rate
-        held = getattr(r.alignment.pass1, "held_rows", None)  # body holds: the hands time stands still there
         fit = trend_fit(r.hands_frame, sd_s, body_fps=sp.body_fps, hands_fps=sp.hands_fps,
                         tempo_var_per_s=opts.tempo_var_per_s if apply else TEMPO_VAR_PER_S,
-                        held=held if held is not None and len(held) == len(r.hands_frame) else None)
+                        held=getattr(r.alignment.pass1, "held_rows", None))  # body holds: the hands time stands still
         if not apply:
             out[s] = replace(r, trend=fit)
             continue

@@ -216,6 +216,17 @@ UNSURE_EDGE_ERROR_S = 0.2
 UNMATCHED_EDGE_S = 2.0
 UNMATCHED_RATIO = 0.85
 UNMATCHED_WINDOW_S = 2.0
+#: ... and at the body's own first or last frame, where the path makes the takes look as if they
+#: started (stopped) together, the stretch from that frame over which the cost stays above
+#: UNMATCHED_OWN_RATIO of the backwards one *on the whole* (the largest sum of the ratio's excess
+#: over it, at least UNMATCHED_EDGE_S long and UNMATCHED_OWN_MARGIN_S seconds of excess 1:
+#: :func:`splicer.stages.coverage.unmatched_body_ends`): there the hands' material is worse than
+#: unrelated, which the takes' own start does not explain (a hands take that starts early and
+#: covers only part of the body: the open ends cannot skip both at once).  Chosen on the tuning
+#: seeds 0-4 of the nine scenarios, both takes, among ratios 0.8-1.0 and margins 0-0.5 s
+#: (benchmarks/HISTORY.md, 0.25.0).
+UNMATCHED_OWN_RATIO = 1.0
+UNMATCHED_OWN_MARGIN_S = 0.5
 #: The estimated error of a frame (:mod:`splicer.stages.risk`) is this quantile of its error
 #: under the risk model: the error it exceeds with probability 1 - RISK_QUANTILE.  A frame is
 #: flagged when its risk of being 0.1 s off exceeds 1 - RISK_QUANTILE, so that share should be

@@ -312,6 +312,7 @@ def test_report_ranges_are_scored(take, monkeypatch):
     real = se.splice
 
     missing = []  # covered body frames the splice itself leaves without a hands frame (open ends)
+    n_bad = []
 
     def reporting_splice(body, hands, **kw):
         res = real(body, hands, **kw)
@@ -320,6 +321,7 @@ def test_report_ranges_are_scored(take, monkeypatch):
             err = alignment_error_s(s, r.hands_frame)  # NaN: not covered, or no hands frame
             bad = s.covered & ~(err <= 0.1)  # a covered frame without a hands frame is wrong
             missing.append(s.covered & ~np.isfinite(r.hands_frame))
+            n_bad.append(int(bad.sum()))
             sr = res.report.sides[side]  # the report is read-only: replace the side with the ranges added
             sides[side] = replace(sr, extra={**sr.extra, "uncovered": _runs_of(~s.covered),
                                              "low_confidence": _runs_of(bad),
@@ -330,6 +332,7 @@ def test_report_ranges_are_scored(take, monkeypatch):
     rec, = evaluate_scenario_pair(take, s, methods=("splice (smooth time map)",))
     assert rec["unc_found"] == 100.0 and rec["unc_false"] == 0.0
     assert rec["flag_bad"] == 100.0 and rec["flag_good"] == 0.0
+    assert rec["n_bad"] == sum(n_bad) > 0 and rec["n_good"] > 0  # both sides' judged frames
     miss = np.concatenate(missing)
     assert rec["missing"] == pytest.approx(100.0 * miss.sum() / (len(missing) * s.covered.sum()))
     assert rec["conf_auc"] == 1.0

@@ -29,7 +29,7 @@ from ..transfer.sampling import sample_rotations
 
 __all__ = ["SCENARIO_METHODS", "SCENARIO_METRICS", "ranges_mask", "report_flags", "flag_scores",
            "uncovered_scores", "alignment_scores", "pause_scores", "confidence_auc", "judged_error",
-           "evaluate_scenario_pair", "evaluate_scenarios",
+           "evaluate_scenario_pair", "evaluate_scenarios", "CLEAN_SCENARIOS", "flags_by_frames", "flags_markdown",
            "summarize_scenarios", "scenario_markdown"]
 
 #: splice options of each splice-based method (the current defaults: open ends)
@@ -47,7 +47,9 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
     Returns
     -------
     list of dict
-        One record per method: ``method`` and the keys of :data:`SCENARIO_METRICS`.
+        One record per method: ``method``, the keys of :data:`SCENARIO_METRICS`, and ``n_bad`` /
+        ``n_good``, the counts of judged frames behind ``flag_bad`` / ``flag_good`` (both sides:
+        what weighs the runs' flags by their frames, :func:`flags_by_frames`).
     """
     unknown = [m for m in methods if m not in SCENARIO_METHODS]
     if unknown:
@@ -111,7 +113,7 @@ def evaluate_scenario_pair(take: Motion, sep: ScenarioSeparation, *, methods=SCE
         rec["covered"] = 100.0 * float(covered.mean())
         rec.update(uncovered_scores(cov, unc_all))
         fl = flag_scores(err, cov, unc_all, low_all)
-        rec.update(flag_bad=fl["flag_bad"], flag_good=fl["flag_good"])
+        rec.update(flag_bad=fl["flag_bad"], flag_good=fl["flag_good"], n_bad=fl["n_bad"], n_good=fl["n_good"])
         if confs and all(c is not None for c in confs):
             rec["conf_auc"] = confidence_auc(np.concatenate(confs), judged_error(err, cov, unc_all))
         else:
@@ -239,6 +241,62 @@ def overview_markdown(runs: pd.DataFrame, method: str = "splice (smooth time map
     return "\n".join(lines) + "\n"
 
 
+#: The scenarios without a second performance (README *Confidence honesty*: "the seven").
+CLEAN_SCENARIOS = ("base", "extra", "short", "pause-hands", "pause-body", "speed", "rate")
+
+
+def flags_by_frames(runs: pd.DataFrame, method: str = "splice (smooth time map)", scenarios=None) -> pd.DataFrame:
+    """Confidence honesty per take: the flags' mean over runs, and weighted by each run's frames.
+
+    Parameters
+    ----------
+    runs : pd.DataFrame
+        Rows of :func:`evaluate_scenarios` (with ``n_bad`` and ``n_good``).
+    method : str
+    scenarios : iterable of str, optional
+        Only these (e.g. :data:`CLEAN_SCENARIOS`); None: every scenario in ``runs``.
+
+    Returns
+    -------
+    pd.DataFrame
+        Indexed by take: ``flag_bad`` / ``flag_good`` (mean over the runs that have such frames,
+        %), ``flag_bad_frames`` / ``flag_good_frames`` (each run's share times its count of such
+        frames, over the counts: the share of all those frames that is flagged, %), ``runs``.
+
+    Examples
+    --------
+    >>> runs = pd.DataFrame({"take": ["t", "t"], "scenario": ["base", "all"], "method": ["m", "m"],
+    ...                      "flag_bad": [100.0, 50.0], "n_bad": [1, 9], "flag_good": [0.0, 10.0], "n_good": [90, 10]})
+    >>> flags_by_frames(runs, "m").round(1).to_dict("records")
+    [{'flag_bad': 75.0, 'flag_good': 5.0, 'flag_bad_frames': 55.0, 'flag_good_frames': 1.0, 'runs': 2}]
+    """
+    r = runs[runs["method"] == method]
+    if scenarios is not None:
+        r = r[r["scenario"].isin(list(scenarios))]
+    rows = {}
+    for take, g in r.groupby("take", sort=False):
+        row = {"flag_bad": g["flag_bad"].mean(), "flag_good": g["flag_good"].mean()}
+        for k in ("bad", "good"):
+            n = g[f"n_{k}"].fillna(0.0) if f"n_{k}" in g else pd.Series(np.nan, index=g.index)
+            share = g[f"flag_{k}"].fillna(0.0)
+            row[f"flag_{k}_frames"] = float((share * n).sum() / n.sum()) if n.sum() > 0 else np.nan
+        row["runs"] = len(g)
+        rows[take] = row
+    return pd.DataFrame.from_dict(rows, orient="index")
+
+
+def flags_markdown(runs: pd.DataFrame, method: str = "splice (smooth time map)") -> str:
+    """The lines of :func:`flags_by_frames` over :data:`CLEAN_SCENARIOS` and over every scenario."""
+    lines = ["| scenarios | take | err > 0.1 s flagged, % (runs; frames) | err < 0.05 s flagged, % (runs; frames) |",
+             "|---|---|---:|---:|"]
+    for label, which in (("the seven without a second performance", CLEAN_SCENARIOS), ("all in these runs", None)):
+        t = flags_by_frames(runs, method, which)
+        for take, row in t.iterrows():
+            lines.append(f"| {label} | {take} | {row.flag_bad:.1f}; {row.flag_bad_frames:.1f} | "
+                         f"{row.flag_good:.1f}; {row.flag_good_frames:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
 def scenario_cli(args, params, err) -> int:
     """``splicer-evaluate --scenario NAME`` / ``--scenarios all`` (called by :func:`splicer.evaluate.main`)."""
     from .evaluate import default_takes, splice_option_args
@@ -288,6 +346,8 @@ def scenario_cli(args, params, err) -> int:
     for nm in dict.fromkeys(runs["scenario"]):
         parts.append(f"\n### {nm}\n\n" + scenario_markdown(table, nm))
     parts.append("\n### splice (smooth time map), per scenario and take\n\n" + overview_markdown(runs))
+    if {"n_bad", "n_good"} <= set(runs.columns):
+        parts.append("\n### splice (smooth time map), confidence honesty\n\n" + flags_markdown(runs))
     text = "".join(parts)
     print(text)
     if args.out:

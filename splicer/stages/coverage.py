@@ -28,11 +28,12 @@ from dataclasses import replace
 import numpy as np
 
 from ..align.risk import distance_to_uncovered
-from ..defaults import (COVERAGE_EDGE_S, UNMATCHED_EDGE_S, UNMATCHED_RATIO, UNMATCHED_WINDOW_S,
-                        UNSURE_EDGE_ERROR_S, UNSURE_EDGE_S)
+from ..defaults import (COVERAGE_EDGE_S, UNMATCHED_EDGE_S, UNMATCHED_OWN_MARGIN_S, UNMATCHED_OWN_RATIO,
+                        UNMATCHED_RATIO, UNMATCHED_WINDOW_S, UNSURE_EDGE_ERROR_S, UNSURE_EDGE_S)
 from ..runs import true_runs
 
-__all__ = ["coverage_edges", "mark_coverage_edges", "unsure_edges", "unmatched_edges", "uncover_unsure_edges"]
+__all__ = ["coverage_edges", "mark_coverage_edges", "unsure_edges", "unmatched_edges", "unmatched_body_ends",
+           "uncover_unsure_edges"]
 
 
 def unsure_edges(hands_frame, est_error_s, fps: float, *, min_s: float = UNSURE_EDGE_S,
@@ -142,6 +143,94 @@ def unmatched_edges(hands_frame, ratio, fps: float, *, min_s: float = UNMATCHED_
     return _edge_runs(h, np.nan_to_num(r, nan=-np.inf) > ratio_above, fps, min_s, pinned, beyond_s)
 
 
+def unmatched_body_ends(hands_frame, ratio, fps: float, *, min_s: float = UNMATCHED_EDGE_S,
+                        ratio_above: float = UNMATCHED_OWN_RATIO, margin_s: float = UNMATCHED_OWN_MARGIN_S,
+                        beyond_s: float = COVERAGE_EDGE_S, pinned=()) -> np.ndarray:
+    """Covered body frames to take as uncovered: at the body's own first or last frame, the
+    stretch whose hands material matches the body *worse* than the hands take played backwards.
+
+    :func:`unmatched_edges` leaves the ends of the covered span at (or within ``beyond_s`` of)
+    the body's own first and last frames alone: the takes seem to start (stop) together there.
+    But a hands take that starts early and covers only part of the body cannot be skipped on
+    both takes at once by the open ends, and its calibration pose and other gestures then cover
+    the body's start.  There the local ratio
+    (:meth:`~splicer.align.evidence.Evidence.local_ratio`) runs above 1, though not in every
+    frame.  From each such end, with ``r`` the ratios walking inwards (NaN: 0 excess)::
+
+        S(k) = sum_{i < k} (r_i - ratio_above)
+
+    the ``k`` maximising ``S`` is taken when ``k`` lasts at least ``min_s`` seconds and ``S(k)``
+    exceeds ``margin_s`` seconds' worth of excess 1 (``margin_s * fps``); never through a pin (the
+    walk stops before the first).  Nothing is taken when the two ends' stretches would leave less
+    than ``min_s`` of the span (nothing left that they lead to: a pair unmatched throughout is the
+    check against the hands played backwards' business, :func:`splicer.align.evidence.match_evidence`).
+
+    Parameters
+    ----------
+    hands_frame : np.ndarray [shape=(n,)]
+        Hands-file frame of each body frame; NaN where uncovered (a single covered span).
+    ratio : np.ndarray [shape=(n,)]
+        As :func:`unmatched_edges`.
+    fps : float
+        Body frames per second.
+    min_s, ratio_above, margin_s : float
+        Shortest stretch, seconds (0: none is taken); the ratio its frames exceed on the whole;
+        the excess it must add up to, seconds of excess 1.
+    beyond_s : float
+        An end counts as the body's own with at most this many seconds of uncovered frames past it.
+    pinned : iterable of int
+        Body frames of the pins: never taken.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,), dtype=bool]
+
+    Examples
+    --------
+    >>> hf = np.arange(10.0)
+    >>> ratio = np.array([1.4, 1.3, 0.9, 1.4, 1.1, 0.5, 0.4, 0.5, 0.6, 0.5])
+    >>> unmatched_body_ends(hf, ratio, 10.0, min_s=0.3, margin_s=0.05).astype(int).tolist()  # 0.9 inside: kept going
+    [1, 1, 1, 1, 1, 0, 0, 0, 0, 0]
+    >>> unmatched_body_ends(hf, ratio, 10.0, min_s=0.3, margin_s=0.15).astype(int).tolist()  # excess 1.1 < 1.5
+    [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+    >>> unmatched_body_ends(hf, ratio, 10.0, min_s=0.3, margin_s=0.05, pinned=[2]).astype(int).tolist()  # a pin
+    [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+    """
+    h = np.asarray(hands_frame, dtype=np.float64)
+    r = np.asarray(ratio, dtype=np.float64)
+    if h.ndim != 1 or r.shape != h.shape:
+        raise ValueError(f"hands_frame and ratio must have one shape (n,), got {h.shape}, {r.shape}")
+    if not (fps > 0 and np.isfinite(fps)) or not all(x >= 0 and np.isfinite(x) for x in (min_s, ratio_above, margin_s,
+                                                                                       beyond_s)):
+        raise ValueError(f"fps must be positive and min_s, ratio_above, margin_s, beyond_s >= 0 (all finite), got "
+                         f"{fps!r}, {min_s!r}, {ratio_above!r}, {margin_s!r}, {beyond_s!r}")
+    n = len(h)
+    out = np.zeros(n, dtype=bool)
+    cov = np.flatnonzero(np.isfinite(h))
+    if len(cov) == 0 or min_s == 0:
+        return out
+    a, b = int(cov[0]), int(cov[-1])
+    need = max(1, int(round(min_s * fps)))
+    excess = np.where(np.isfinite(r), r - ratio_above, 0.0)
+    pins = np.zeros(n, dtype=bool)
+    pins[np.asarray([p for p in pinned if 0 <= p < n], dtype=np.int64)] = True
+    for end, past, step in ((a, a, 1), (b, n - 1 - b, -1)):
+        if past > beyond_s * fps:
+            continue
+        idx = np.arange(a, b + 1)[::step]  # the span, walking inwards from this end
+        stop = np.flatnonzero(pins[idx])
+        walk = idx[:stop[0]] if len(stop) else idx[:-1]  # before the first pin; never the whole span
+        if len(walk) < need:
+            continue
+        total = np.cumsum(excess[walk])
+        k = int(np.argmax(total)) + 1
+        if k >= need and total[k - 1] > margin_s * fps:
+            out[walk[:k]] = True
+    if (b - a + 1) - int(out.sum()) < need:  # the two ends leave too little: nothing the stretches lead to
+        out[:] = False
+    return out
+
+
 def _edge_runs(h: np.ndarray, flag: np.ndarray, fps: float, min_s: float, pinned, beyond_s: float = 0.0) -> np.ndarray:
     """The runs of ``flag`` from an end of the covered span (finite ``h``) inside the body (more
     than ``beyond_s`` seconds of uncovered frames past it), at least ``min_s`` seconds, stopped
@@ -241,7 +330,7 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
         if take.any():
             notes.append((take, f"the alignment there is unsure throughout (estimated error over {error_s:g} s for at "
                                 f"least {min_s:g} s)"))
-        ev = r.alignment.evidence
+        ev, own = r.alignment.evidence, None
         ratio = None if ev is None or not unmatched_s else ev.local_ratio(len(hf), fps, UNMATCHED_WINDOW_S)
         hf = np.where(take, np.nan, hf)  # the unsure stretches out: the unmatched ones start where they stop
         if ratio is not None:
@@ -253,6 +342,13 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
                 notes.append((more, f"the hands' material matched there fits the body no better than the hands take "
                                     f"played backwards (over {100 * UNMATCHED_RATIO:.0f}% of its cost for at least "
                                     f"{unmatched_s:g} s)"))
+            own = unmatched_body_ends(hf, ratio, fps, min_s=unmatched_s, pinned=pinned)
+            if own.any():
+                take = take | own
+                hf = np.where(own, np.nan, hf)
+                notes.append((own, f"the hands' material matched there fits the body worse than the hands take played "
+                                   f"backwards (its cost over {UNMATCHED_OWN_RATIO:g}x that one's on the whole, for "
+                                   f"at least {unmatched_s:g} s)"))
         if not take.any():
             out[s] = r
             continue
@@ -264,7 +360,8 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
 
             for mask, why in notes:
                 spans = ", ".join(f"{a}-{b} ({(b - a + 1) / fps:.1f} s)" for a, b in frame_ranges(mask))
-                log.note(f"{s} side: body frames {spans} next to the uncovered ones are taken as uncovered too: {why}, "
+                where = "at the body's own start or end" if mask is own else "next to the uncovered ones"
+                log.note(f"{s} side: body frames {spans} {where} are taken as uncovered: {why}, "
                          "as where the hands take holds material from outside the body's performance")
     return out
 

@@ -182,6 +182,16 @@ def test_unmatched_body_ends_worked():
         unmatched_body_ends(hf, ratio[:-1], 10.0)
 
 
+def _random_span(rng):
+    """A body of 1-39 frames with one covered span (hands frames 0, 1, ... there), NaN around it."""
+    n = int(rng.integers(1, 40))
+    hf = np.arange(n, dtype=np.float64)
+    a, b = sorted(rng.integers(0, n, size=2))
+    hf[:a] = np.nan
+    hf[b + 1:] = np.nan
+    return n, hf
+
+
 def _body_ends_reference(hf, ratio, fps, min_s, ratio_above, margin_s, beyond_s, pinned):
     """Slow reference of unmatched_body_ends: every prefix of the walk from each body end summed anew."""
     n = len(hf)
@@ -217,11 +227,7 @@ def test_unmatched_body_ends_against_a_slow_reference():
 
     rng = np.random.default_rng(1)
     for _ in range(2000):
-        n = int(rng.integers(1, 40))
-        hf = np.arange(n, dtype=np.float64)
-        a, b = sorted(rng.integers(0, n, size=2))
-        hf[:a] = np.nan
-        hf[b + 1:] = np.nan
+        n, hf = _random_span(rng)
         ratio = np.round(rng.uniform(0.3, 1.6, n), 2)  # two decimals: ties between prefixes are exact
         ratio[rng.random(n) < 0.05] = np.nan
         pinned = set(rng.integers(0, n, size=int(rng.integers(0, 3))).tolist())
@@ -431,11 +437,7 @@ def test_edge_rules_against_a_slow_reference():
 
     rng = np.random.default_rng(0)
     for _ in range(3000):
-        n = int(rng.integers(1, 40))
-        hf = np.arange(n, dtype=np.float64)
-        a, b = sorted(rng.integers(0, n, size=2))
-        hf[:a] = np.nan
-        hf[b + 1:] = np.nan
+        n, hf = _random_span(rng)
         if rng.random() < 0.05:
             hf[:] = np.nan
         ratio = np.where(rng.random(n) < 0.7, rng.uniform(0.86, 1.2, n), rng.uniform(0.0, 0.85, n))

@@ -347,8 +347,8 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
                 take = take | own
                 hf = np.where(own, np.nan, hf)
                 notes.append((own, f"the hands' material matched there fits the body worse than the hands take played "
-                                   f"backwards (its cost over {UNMATCHED_OWN_RATIO:g}x that one's on the whole, for "
-                                   f"at least {unmatched_s:g} s)"))
+                                   f"backwards (over {100 * UNMATCHED_OWN_RATIO:.0f}% of its cost on the whole, for at least "
+                                   f"{unmatched_s:g} s)"))
         if not take.any():
             out[s] = r
             continue

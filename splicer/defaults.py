@@ -223,7 +223,7 @@ UNMATCHED_WINDOW_S = 2.0
 #: :func:`splicer.stages.coverage.unmatched_body_ends`): there the hands' material is worse than
 #: unrelated, which the takes' own start does not explain (a hands take that starts early and
 #: covers only part of the body: the open ends cannot skip both at once).  Chosen on the tuning
-#: seeds 0-4 of the nine scenarios, both takes, among ratios 0.8-1.0 and margins 0-0.5 s
+#: seeds 0-4 of the nine scenarios, both takes, among bounds 0.8-1.1 and margins 0-1.5 s
 #: (benchmarks/HISTORY.md, 0.25.0).
 UNMATCHED_OWN_RATIO = 1.0
 UNMATCHED_OWN_MARGIN_S = 0.5

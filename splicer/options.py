@@ -52,7 +52,7 @@ class SpliceOptions:
     offset_s: float | None = None  # open ends: body frame 0 shows this hands time, seconds (a starting guess)
     uncovered_quantile: float = D.UNCOVERED_QUANTILE  # open ends: an uncovered body frame costs this quantile of D1
     unsure_edge_s: float = D.UNSURE_EDGE_S  # open ends: a stretch this long next to uncovered frames, estimated error over UNSURE_EDGE_ERROR_S throughout, is uncovered too (stages.coverage.unsure_edges); 0: off
-    unmatched_edge_s: float = D.UNMATCHED_EDGE_S  # open ends: a stretch this long next to uncovered frames that matches no better than the hands played backwards is uncovered too (stages.coverage.unmatched_edges); 0: off
+    unmatched_edge_s: float = D.UNMATCHED_EDGE_S  # open ends: a stretch this long next to uncovered frames that matches no better than the hands played backwards is uncovered too (stages.coverage.unmatched_edges), and at the body's own start or end one that matches worse on the whole (unmatched_body_ends); 0: both off
     mirror_hands: str | None = None  # "auto", "yes", "no"; None: the config file's, else auto
     repair: str = "on"  # "on": dropouts and gaps of the hands capture repaired (and reported) first; "off"
 

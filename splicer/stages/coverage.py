@@ -19,6 +19,9 @@ report lists them with the other uncovered frames.  Then :func:`unmatched_edges`
 where the alignment there costs nearly what it costs against the hands take played backwards
 (:meth:`splicer.align.evidence.Evidence.local_ratio` over :data:`splicer.defaults.UNMATCHED_RATIO`
 for at least :data:`splicer.defaults.UNMATCHED_EDGE_S`): material no better than unrelated.
+At the body's own first or last frame, which those two rules leave alone (the takes may start
+together there), :func:`unmatched_body_ends` takes the stretch whose material fits the body
+worse than the hands played backwards on the whole.
 """
 
 from __future__ import annotations
@@ -214,7 +217,7 @@ def unmatched_body_ends(hands_frame, ratio, fps: float, *, min_s: float = UNMATC
     excess = np.where(np.isfinite(r), r - ratio_above, 0.0)
     pins = np.zeros(n, dtype=bool)
     pins[np.asarray([p for p in pinned if 0 <= p < n], dtype=np.int64)] = True
-    for end, past, step in ((a, a, 1), (b, n - 1 - b, -1)):
+    for past, step in ((a, 1), (n - 1 - b, -1)):
         if past > beyond_s * fps:
             continue
         idx = np.arange(a, b + 1)[::step]  # the span, walking inwards from this end
@@ -294,8 +297,9 @@ def coverage_edges(hands_frame, fps: float, edge_s: float = COVERAGE_EDGE_S) -> 
 
 
 def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = UNSURE_EDGE_ERROR_S) -> dict:
-    """Each side's :func:`unsure_edges`, then its :func:`unmatched_edges`, taken as uncovered
-    (after the risk stage, before :func:`mark_coverage_edges`).
+    """Each side's :func:`unsure_edges`, then its :func:`unmatched_edges` and
+    :func:`unmatched_body_ends`, taken as uncovered (after the risk stage, before
+    :func:`mark_coverage_edges`).
 
     Parameters
     ----------

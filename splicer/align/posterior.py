@@ -123,29 +123,28 @@ def _forward(C, lo, hi, off, r0, r1, inv_t, pen, hx, held, alpha, shift):
                 cur[k] = v
                 if v > top:
                     top = v
-        for k in range(H - L + 1):
-            if i > r0 and held[i]:
-                break
-            j = L + k
-            c = C[o + k]
-            if c == np.inf:
-                cur[k] = ninf
-                continue
-            acc = ninf
-            if i == r0 and k == 0:
-                acc = 0.0
-            if i > r0:
-                pL, pH = lo[i - 1], hi[i - 1]
-                if pL <= j - 1 <= pH:
-                    acc = _lae(acc, prev[j - 1 - pL])
-                if pL <= j <= pH:
-                    acc = _lae(acc, prev[j - pL] - p)
-            if k > 0:
-                acc = _lae(acc, cur[k - 1] - p - hx * c * inv_t)
-            v = acc - c * inv_t
-            cur[k] = v
-            if v > top:
-                top = v
+        else:
+            for k in range(H - L + 1):
+                j = L + k
+                c = C[o + k]
+                if c == np.inf:
+                    cur[k] = ninf
+                    continue
+                acc = ninf
+                if i == r0 and k == 0:
+                    acc = 0.0
+                if i > r0:
+                    pL, pH = lo[i - 1], hi[i - 1]
+                    if pL <= j - 1 <= pH:
+                        acc = _lae(acc, prev[j - 1 - pL])
+                    if pL <= j <= pH:
+                        acc = _lae(acc, prev[j - pL] - p)
+                if k > 0:
+                    acc = _lae(acc, cur[k - 1] - p - hx * c * inv_t)
+                v = acc - c * inv_t
+                cur[k] = v
+                if v > top:
+                    top = v
         if top == ninf:
             top = 0.0
         shift[i] = top

@@ -171,9 +171,7 @@ def hold_band(band, held):
     held = np.array(held, dtype=bool)
     pinned = {int(c.x) for c in band.constraints}
     lo, hi = band.lo.copy(), band.hi.copy()
-    starts, stops = true_runs(held)
-    for s, e in zip(starts, stops):
-        a, b = int(s) - 1, int(e) - 1  # the hold's rows: a (entered as usual) .. b
+    for a, b in hold_ranges(held):  # the hold's rows: a (entered as usual) .. b
         if any(a <= x <= b for x in pinned):
             held[a + 1:b + 1] = False
             continue

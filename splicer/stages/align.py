@@ -239,11 +239,7 @@ def _body_holds(arms, fps: float, opts: SpliceOptions) -> tuple:
 
     if opts.body_holds == "off":
         return ()
-    pts = []
-    for a in arms:
-        b = a.body
-        pts.append(b.points - b.shoulder[:, None, :] if b.shoulder.ndim == 2 else b.points)
-    return body_holds(pts, fps)
+    return body_holds([a.body.relative() for a in arms], fps)
 
 
 def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *, others: tuple = (),

@@ -142,10 +142,18 @@ WRIST_SLOPE_S = 0.5
 #: 0.07-0.26 with the hands C3D and 0.17-0.42 with both takes C3D, where the refinement cost more
 #: than it gave (both C3D 0.77 -> 0.56 frames at 0.2; hands C3D 0.56 -> 0.58).
 WRIST_NOISE_SHARE_MAX = 0.2
-#: Rounds of the wrist's refinement, each from the map the last one left, where the markers carry
+#: Most rounds of the wrist's refinement, each from the map the last one left, where the markers carry
 #: no measured noise (optical markers: one).  0.19.0: two (tuning seeds 0-3, every scenario's mean
-#: error lower or equal, the imitation 0.017 -> 0.013 s and 0.029 -> 0.021 s; benchmarks/HISTORY.md).
-WRIST_ROUNDS = 2
+#: error lower or equal, the imitation 0.017 -> 0.013 s and 0.029 -> 0.021 s); 0.26.0: up to six,
+#: until settled (tuning seeds 0-4: *all* 0.030 -> 0.028 s and 0.050 -> 0.041 s, every clean
+#: scenario's mean lower or equal; a fixed six let clean maps drift, twelve were no better;
+#: benchmarks/HISTORY.md).
+WRIST_ROUNDS = 6
+#: ... at least this many of them (where the markers allow more than one) ...
+WRIST_ROUNDS_MIN = 2
+#: ... and no more once a round moves the map by less than this on average, seconds of body time
+#: (a tenth of a frame at 30 fps).
+WRIST_SETTLE_S = 1.0 / 300.0
 #: ... and optical markers whose measured noise makes up less than this share of the hand's
 #: motion relative to the forearm (:func:`splicer.align.wrist.noise_share`) get those rounds too,
 #: against optical markers or virtual ones on the styloids: the noise the second round would fit

@@ -93,6 +93,7 @@ def test_splice_markers_flags_the_edges_of_partial_coverage(session, tmp_path):
 
 
 def test_splice_with_hands_markers(session):
+    import splicer.defaults as D
     from splicer.evaluation.evaluate import _alignment_scores
     from splicer.pipeline import splice
 
@@ -115,7 +116,7 @@ def test_splice_with_hands_markers(session):
     assert all(v.markers.placed == (STYLOID, "optical") for v in r.sides.values())
     assert all(v.markers.placed == (ANATOMICAL, ANATOMICAL) for v in plain.sides.values())
     ran = [v for v in r.sides.values() if v.wrist is not None]
-    assert ran and all(v.extra["wrist_rounds"] == 2 for v in ran)  # hands markers made without noise
+    assert ran and all(D.WRIST_ROUNDS_MIN <= v.extra["wrist_rounds"] <= D.WRIST_ROUNDS for v in ran)  # hands markers made without noise: rounds until settled
     from splicer.io.config import SpliceConfig
 
     rigid = splice(d / "body.bvh", d / "hands.bvh", hands_markers=d / "hands.c3d",
@@ -217,7 +218,8 @@ def test_splice_markers_runs_the_wrist_refinement_on_the_real_capture(shared_mot
         err[radius] = float(np.mean(np.abs(hold_ends(r.time_maps["right"]) - truth) * t.fps / 120.0))
         side = r.report.to_dict()["sides"]["right"]
         assert ("wrist_shift_frames" in side) is (radius is None)
-    assert 0.0 < side["wrist_noise_share"] < D.WRIST_ROUNDS_NOISE_SHARE_MAX and side["wrist_rounds"] == D.WRIST_ROUNDS
+    assert 0.0 < side["wrist_noise_share"] < D.WRIST_ROUNDS_NOISE_SHARE_MAX
+    assert D.WRIST_ROUNDS_MIN <= side["wrist_rounds"] <= D.WRIST_ROUNDS  # the quiet markers' rounds until settled (2 here)
     assert err[None] < 0.75 * err[0.0], err  # measured 0.86 against 1.24 (one round: 0.99)
 
 

@@ -407,8 +407,9 @@ def test_a_second_performance_signs_its_small_motions_softly(monkeypatch):
     """The synthetic speaker, *imitation*, tuning seed 2: noise matching fires, and pass 1 with
     fixed ends then lets a direction sign rise over half the motion's RMS speed
     (``SIGN_RAMP_NOISY``) instead of 3 %, so the arm noise's small velocities in the rests between
-    gestures count as little motion.  Mean error 0.0127 s, against 0.0195 s with the clean pairs'
-    ramp (measured; 0.19.0 had the latter).  Open-ended passes keep the clean ramp."""
+    gestures count as little motion.  Mean error 0.0113 s, against 0.0149 s with the clean pairs'
+    ramp (measured on 0.26.0, whose wrist rounds until settled mend part of the difference; 0.0127
+    against 0.0195 s before; 0.19.0 had the latter).  Open-ended passes keep the clean ramp."""
     import splicer.align.passes as P
     import splicer.defaults as D
     from splicer import splice
@@ -435,4 +436,4 @@ def test_a_second_performance_signs_its_small_motions_softly(monkeypatch):
     assert ("fixed", D.SIGN_RAMP_NOISY) in seen and ("open", D.SIGN_RAMP) in seen
     assert all(r == D.SIGN_RAMP for ends, r in seen if ends == "open")
     step = splice(sep.body, sep.hands, sign_ramp_noisy=D.SIGN_RAMP)
-    assert mean_error(soft) < 0.016 and mean_error(step) > 0.017
+    assert mean_error(soft) < 0.0125 and mean_error(step) > 0.014

@@ -96,9 +96,10 @@ def test_splice_on_a_z_rest_take_aligns_as_with_up_y(sample):
     # measured: 0.30 frames (as the original Y-up files) against 0.53 reading the rest skeleton
     # (0.19.0: 0.30 against 3.55; 0.2.0: 2.2 against 13.8): reading the rest skeleton's axis
     # makes the arms look noisy, and since 0.20.0 a noisy pair's signs rise over a wider ramp,
-    # which makes that mistake cost less, not nothing
+    # which makes that mistake cost less, not nothing; 0.26.0's wrist rounds until settled mend more
+    # of it: 0.26 against 0.36 frames
     assert err(auto) == pytest.approx(err(orig), abs=0.05)
-    assert err(rest) > 1.5 * err(auto)
+    assert err(rest) > 1.25 * err(auto)
 
 
 def test_root_heading_of_a_z_rest_take(sample):

@@ -262,6 +262,49 @@ def test_stage_rounds_start_where_the_last_left(weighed, monkeypatch):
     assert all(r.extra["wrist_rounds"] == 1 and r.extra["wrist_noise_share"] == 0.0 for r in out.values())
 
 
+def test_stage_rounds_stop_once_settled(weighed, monkeypatch):
+    """Between WRIST_ROUNDS_MIN and WRIST_ROUNDS rounds: after the first WRIST_ROUNDS_MIN, the
+    rounds stop at the first one that moves the map by less than WRIST_SETTLE_S on average (in
+    body frames, WRIST_SETTLE_S x the body rate), and the report says how many ran."""
+    import splicer.align.wrist as W
+    import splicer.defaults as D
+
+    moves = []
+    real = W.refine_map
+
+    def recording(*a, **kw):
+        fit = real(*a, **kw)
+        moves.append(float(np.mean(np.abs(fit.offset))))
+        return fit
+
+    monkeypatch.setattr(W, "refine_map", recording)
+    monkeypatch.setattr(D, "WRIST_ROUNDS", 6)
+    monkeypatch.setattr(D, "WRIST_ROUNDS_MIN", 2)
+    monkeypatch.setattr(D, "WRIST_SETTLE_S", 1.0)  # every round settles: the minimum runs
+    out = splicer.refine_time_maps(weighed, SpliceOptions())
+    assert len(moves) == 2 * len(weighed) and all(r.extra["wrist_rounds"] == 2 for r in out.values())
+    moves.clear()
+    monkeypatch.setattr(D, "WRIST_SETTLE_S", 0.0)  # none settles: the most run
+    out = splicer.refine_time_maps(weighed, SpliceOptions())
+    assert len(moves) == 6 * len(weighed) and all(r.extra["wrist_rounds"] == 6 for r in out.values())
+    six = {s: r.hands_frame for s, r in out.items()}
+    moves.clear()
+    settle_s = 1.0 / 300.0  # a tenth of a frame at 30 fps: the sample's sides settle after 3 and 4 rounds
+    monkeypatch.setattr(D, "WRIST_SETTLE_S", settle_s)
+    out = splicer.refine_time_maps(weighed, SpliceOptions())
+    k = 0
+    for s, r in out.items():
+        n = r.extra["wrist_rounds"]
+        mine, k = moves[k:k + n], k + n
+        fps = r.markers.spaces.body_fps
+        assert 2 <= n <= 6
+        assert all(m >= settle_s * fps for m in mine[2 - 1:n - 1])  # each round past the minimum moved enough to go on
+        assert n == 6 or mine[-1] < settle_s * fps  # and the last one settled (or the most ran)
+        if n < 6:
+            assert not np.array_equal(r.hands_frame, six[s])
+    assert k == len(moves) and any(2 < r.extra["wrist_rounds"] < 6 for r in out.values())
+
+
 @pytest.mark.parametrize("placed, quiet_rounds", [(("optical", "optical"), 2), (("optical", W_STYLOID), 2),
                                                   ((W_STYLOID, "optical"), 2), (("optical", W_ANATOMICAL), 1)])
 def test_stage_rounds_of_optical_markers_follow_their_noise(weighed, monkeypatch, placed, quiet_rounds):

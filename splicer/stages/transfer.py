@@ -120,8 +120,12 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
 
     Within ``opts.wrist_radius_s`` of the map, the smooth offset whose hand-in-forearm rate of
     change best matches the body's is added to the covered frames' map; then the map is made
-    monotone again and every pin held (:func:`splicer.transfer.timemap.monotone_pinned`).  Measured
-    on the ground-truth protocol (README *Accuracy*).
+    monotone again and every pin held (:func:`splicer.transfer.timemap.monotone_pinned`).  Where
+    the markers carry no measured noise this runs in rounds, each from the map the last one left:
+    at least :data:`~splicer.defaults.WRIST_ROUNDS_MIN`, at most
+    :data:`~splicer.defaults.WRIST_ROUNDS`, until a round moves the map by under
+    :data:`~splicer.defaults.WRIST_SETTLE_S` on average (optical markers with noise: one round).
+    Measured on the ground-truth protocol (README *Accuracy*).
 
     Parameters
     ----------
@@ -147,8 +151,8 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
     from dataclasses import replace
 
     from ..align.wrist import STYLOID, WristEvidence, markers_compare, noise_share, refine_map
-    from ..defaults import (WRIST_NOISE_SHARE_MAX, WRIST_OFFSET_SMOOTH_S, WRIST_ROUNDS, WRIST_ROUNDS_NOISE_SHARE_MAX,
-                            WRIST_SLOPE_S, WRIST_SMOOTH_S)
+    from ..defaults import (WRIST_NOISE_SHARE_MAX, WRIST_OFFSET_SMOOTH_S, WRIST_ROUNDS, WRIST_ROUNDS_MIN,
+                            WRIST_ROUNDS_NOISE_SHARE_MAX, WRIST_SETTLE_S, WRIST_SLOPE_S, WRIST_SMOOTH_S)
     from ..transfer.timemap import monotone_pinned
 
     if opts.merge != "timemap" or not opts.wrist_radius_s > 0:
@@ -182,11 +186,15 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
         alike = set(r.markers.placed) in ({"optical"}, {"optical", STYLOID})
         quiet = alike and share < WRIST_ROUNDS_NOISE_SHARE_MAX
         rounds = WRIST_ROUNDS if not noise or quiet else 1
-        offset = 0.0
+        offset, done = 0.0, 0
         for _ in range(rounds):
             fit = refine_map(body_pts, hands_pts, c, fps=sp.body_fps, radius_s=opts.wrist_radius_s,
                              smooth_s=WRIST_SMOOTH_S, offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
-            c, offset = fit.refined, offset + fit.offset
+            c, offset, done = fit.refined, offset + fit.offset, done + 1
+            # settled: past the first rounds, a round that moved the map by under WRIST_SETTLE_S on average
+            if done >= WRIST_ROUNDS_MIN and float(np.mean(np.abs(fit.offset))) < WRIST_SETTLE_S * sp.body_fps:
+                break
+        rounds = done
         new = monotone_pinned(sp.common_to_hands(fit.refined), last=sp.n_hands - 1, pins=_span_pins(r.markers.pins, a, b))
         moved = float(np.mean(np.abs(new - span)))
         tm[a:b + 1] = new

@@ -215,8 +215,7 @@ def unmatched_body_ends(hands_frame, ratio, fps: float, *, min_s: float = UNMATC
     a, b = int(cov[0]), int(cov[-1])
     need = max(1, int(round(min_s * fps)))
     excess = np.where(np.isfinite(r), r - ratio_above, 0.0)
-    pins = np.zeros(n, dtype=bool)
-    pins[np.asarray([p for p in pinned if 0 <= p < n], dtype=np.int64)] = True
+    pins = _pin_mask(pinned, n)
     for past, step in ((a, 1), (n - 1 - b, -1)):
         if past > beyond_s * fps:
             continue
@@ -234,6 +233,13 @@ def unmatched_body_ends(hands_frame, ratio, fps: float, *, min_s: float = UNMATC
     return out
 
 
+def _pin_mask(pinned, n: int) -> np.ndarray:
+    """Body frames of the pins as a mask over ``n`` frames (pins outside them ignored)."""
+    pins = np.zeros(n, dtype=bool)
+    pins[np.asarray([p for p in pinned if 0 <= p < n], dtype=np.int64)] = True
+    return pins
+
+
 def _edge_runs(h: np.ndarray, flag: np.ndarray, fps: float, min_s: float, pinned, beyond_s: float = 0.0) -> np.ndarray:
     """The runs of ``flag`` from an end of the covered span (finite ``h``) inside the body (more
     than ``beyond_s`` seconds of uncovered frames past it), at least ``min_s`` seconds, stopped
@@ -247,8 +253,7 @@ def _edge_runs(h: np.ndarray, flag: np.ndarray, fps: float, min_s: float, pinned
         return out
     need = max(1, int(round(min_s * fps)))
     flag = np.isfinite(h) & flag
-    pins = np.zeros(n, dtype=bool)
-    pins[np.asarray([p for p in pinned if 0 <= p < n], dtype=np.int64)] = True
+    pins = _pin_mask(pinned, n)
     flag &= ~pins
     a, b = int(cov[0]), int(cov[-1])
     past = beyond_s * fps  # uncovered frames past an end: more than this

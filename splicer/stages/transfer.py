@@ -186,11 +186,11 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
         alike = set(r.markers.placed) in ({"optical"}, {"optical", STYLOID})
         quiet = alike and share < WRIST_ROUNDS_NOISE_SHARE_MAX
         rounds = WRIST_ROUNDS if not noise or quiet else 1
-        offset, done = 0.0, 0
-        for _ in range(rounds):
+        offset = 0.0
+        for done in range(1, rounds + 1):
             fit = refine_map(body_pts, hands_pts, c, fps=sp.body_fps, radius_s=opts.wrist_radius_s,
                              smooth_s=WRIST_SMOOTH_S, offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
-            c, offset, done = fit.refined, offset + fit.offset, done + 1
+            c, offset = fit.refined, offset + fit.offset
             # settled: past the first rounds, a round that moved the map by under WRIST_SETTLE_S on average
             if done >= WRIST_ROUNDS_MIN and float(np.mean(np.abs(fit.offset))) < WRIST_SETTLE_S * sp.body_fps:
                 break

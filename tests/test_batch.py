@@ -300,3 +300,43 @@ def test_summary_figures_from_a_report_worked_example():
     assert r["backwards_ratio"] == 0.97 and r["pass1_cost"] == 5.0 and r["seconds"] == 1.23
     empty = summary_row(PairJob("p", "b.bvh", "h.bvh", "o.bvh"), "failed", error="x")
     assert (empty["confidence"], empty["low_confidence_pct"], empty["backwards_ratio"]) == (None, None, None)
+
+
+def test_local_cluster_workers_drop_only_the_closing_heartbeat_traceback():
+    """The local cluster's worker processes carry the filter for distributed's shutdown race
+    (a closing worker's heartbeat meeting the closed scheduler logged an ERROR with two
+    tracebacks in CI); a running worker's heartbeat failure and every other record still pass."""
+    import logging
+
+    from distributed.core import Status
+
+    from splicer._dask_shutdown import HEARTBEAT_FAILED, ClosingHeartbeatFilter
+    from splicer.batch import dask_client
+
+    def check():
+        import logging
+
+        from splicer._dask_shutdown import ClosingHeartbeatFilter
+        return [type(f).__name__ for f in logging.getLogger("distributed.worker").filters
+                if isinstance(f, ClosingHeartbeatFilter)]
+
+    with dask_client(workers=1) as cl:
+        on_workers = cl.run(check)
+    assert list(on_workers.values()) == [["ClosingHeartbeatFilter"]]
+
+    class W:
+        status = Status.running
+
+    w = W()
+    f = ClosingHeartbeatFilter(w)
+
+    def rec(msg):
+        return logging.LogRecord("distributed.worker", logging.ERROR, __file__, 1, msg, None, None)
+
+    assert f.filter(rec(HEARTBEAT_FAILED + "."))
+    for s in (Status.closing, Status.closing_gracefully, Status.closed):
+        w.status = s
+        assert not f.filter(rec(HEARTBEAT_FAILED + "."))
+        assert f.filter(rec("Unexpected exception during heartbeat. Closing worker."))
+    del w
+    assert f.filter(rec(HEARTBEAT_FAILED + "."))  # the worker gone: the filter passes everything

@@ -29,8 +29,9 @@ _CLOSING = frozenset({Status.closing, Status.closing_gracefully, Status.closed})
 class ClosingHeartbeatFilter(logging.Filter):
     """Drop the heartbeat-failure record while ``worker`` is closing; pass every other record.
 
-    >>> from types import SimpleNamespace
-    >>> w = SimpleNamespace(status=Status.running)
+    >>> class Worker:
+    ...     status = Status.running
+    >>> w = Worker()
     >>> f = ClosingHeartbeatFilter(w)
     >>> rec = logging.LogRecord("distributed.worker", logging.ERROR, __file__, 1,
     ...                         HEARTBEAT_FAILED + ".", None, None)
@@ -46,21 +47,13 @@ class ClosingHeartbeatFilter(logging.Filter):
 
     def __init__(self, worker):
         super().__init__()
-        self._worker = weakref.ref(worker) if _weakrefable(worker) else (lambda: worker)
+        self._worker = weakref.ref(worker)
 
     def filter(self, record: logging.LogRecord) -> bool:
         if not str(record.msg).startswith(HEARTBEAT_FAILED):
             return True
         w = self._worker()
-        return w is None or getattr(w, "status", None) not in _CLOSING
-
-
-def _weakrefable(obj) -> bool:
-    try:
-        weakref.ref(obj)
-    except TypeError:
-        return False
-    return True
+        return w is None or w.status not in _CLOSING
 
 
 class QuietShutdown(WorkerPlugin):

@@ -81,6 +81,14 @@ POSITION_WEIGHT_NOISY = 10.0
 #: 0.033 and 0.025 -> 0.018 s (benchmarks/HISTORY.md, 0.18.0).  A weight of 30 everywhere would
 #: cost the imitation (synthetic 0.030 -> 0.035 s).
 POSITION_WEIGHT_RECHECK = 30.0
+#: ... and, a third candidate, the pair aligned at that weight with each take's phase markers
+#: smoothed so that both are blurred over the same span of the performance, the tempo read from
+#: the first alignment's maps (:mod:`splicer.align.tempo`; 0.27.0); False leaves it out.
+TEMPO_MATCHED = True
+#: The tempo's slope smoothing (a Gaussian's standard deviation, seconds) and its limits
+#: (hands seconds per body second): as the prototype measured in benchmarks/HISTORY.md, 0.26.1.
+TEMPO_SLOPE_S = 0.5
+TEMPO_RANGE = (0.2, 5.0)
 #: D1's sign dead zone: components below this share of the motion's RMS velocity
 #: (acceleration) count as zero.
 DEAD_ZONE = 0.01

@@ -74,8 +74,8 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
     offset_s = opts.offset_s if opts.offset_s is not None else inputs.config.offset_s
     marks = {s: side_markers(inputs, rig, s, log) for s in rig.sides}
 
-    def realign(o, lg):  # both arms; one noise decision
-        return align_pair(marks, o, lg, ends=ends, offset_s=offset_s)
+    def realign(o, lg, markers=None):  # both arms; one noise decision
+        return align_pair(marks if markers is None else markers, o, lg, ends=ends, offset_s=offset_s)
 
     def finish(aligned, lg):
         sides = {s: SideResult(s, time_map(aligned[s], marks[s], opts), marks[s], aligned[s]) for s in rig.sides}

@@ -1,6 +1,6 @@
 """Stage 6c's second opinion (splicer.stages.recheck): a noisy pair aligned again with the arms'
-positions weighed more, the pair of maps the hand's motion relative to the forearm matches
-better along kept."""
+positions weighed more (and once more with tempo-matched smoothing), the pair of maps the hand's
+motion relative to the forearm matches best along kept."""
 
 from __future__ import annotations
 
@@ -44,45 +44,69 @@ def _pair(**kw):
 @pytest.fixture
 def stand_ins(monkeypatch):
     """``realign`` and ``finish`` that record their calls and return a second pair (shifted by
-    one hands frame); ``map_mismatch`` read from a table keyed by which pair it is given."""
+    one hands frame; the tempo-matched one by two); ``map_mismatch`` read from a table keyed by
+    which pair it is given (``"first"``, ``"second"``, ``"tempo"``); ``tempo_markers`` a stand-in."""
     calls, mismatch = [], {}
-    second = _pair(shift=1.0)
+    second, tempo = _pair(shift=1.0), _pair(shift=2.0)
+    blurred = {"left": "blurred", "right": "blurred"}
 
-    def realign(opts, log):
-        calls.append(opts.position_weight)
-        log.note("second run")
-        return "aligned"
+    def realign(opts, log, markers=None):
+        assert markers is None or markers is blurred
+        calls.append((opts.position_weight, markers is not None))
+        log.note("tempo run" if markers is not None else "second run")
+        return "tempo" if markers is not None else "aligned"
 
     def finish(aligned, log):
-        assert aligned == "aligned"
-        return second
+        return tempo if aligned == "tempo" else second
 
-    monkeypatch.setattr(R, "map_mismatch", lambda sides, frames: mismatch[sides is second])
-    return SimpleNamespace(calls=calls, mismatch=mismatch, second=second, realign=realign, finish=finish)
+    monkeypatch.setattr(R, "map_mismatch", lambda sides, frames: mismatch[
+        "second" if sides is second else "tempo" if sides is tempo else "first"])
+    monkeypatch.setattr(R, "tempo_markers", lambda sides: blurred)
+    return SimpleNamespace(calls=calls, mismatch=mismatch, second=second, tempo=tempo, realign=realign, finish=finish)
 
 
 def test_the_better_matching_pair_is_kept(stand_ins):
     first = _pair()
-    stand_ins.mismatch.update({False: 0.6, True: 0.4})
+    W = D.POSITION_WEIGHT_RECHECK
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.4, "tempo": 0.5})
     log = Log()
     log.note("smoothed")  # a note from before the alignment: kept either way
     log.note("first run")
     out = R.position_second_opinion(first, SpliceOptions(), log, realign=stand_ins.realign, finish=stand_ins.finish,
                                     since=1)
-    assert out is stand_ins.second and stand_ins.calls == [D.POSITION_WEIGHT_RECHECK]
+    assert out is stand_ins.second and stand_ins.calls == [(W, False), (W, True)]
     assert log.warnings[:2] == ["smoothed", "second run"] and len(log.warnings) == 3
-    assert "weighed 30 instead of 10" in log.warnings[2] and "mismatch 0.400 against 0.600" in log.warnings[2]
-    assert "position second opinion" in log.timings
+    assert "weighed 30 instead of 10;" in log.warnings[2] and "mismatch 0.400 against 0.600" in log.warnings[2]
+    assert "position second opinion" in log.timings and "tempo-matched second opinion" in log.timings
 
-    stand_ins.mismatch.update({False: 0.4, True: 0.6})  # worse: the first pair and its notes stay
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.5, "tempo": 0.3})  # the tempo-matched maps match best
+    log = Log()
+    log.note("first run")
+    out = R.position_second_opinion(first, SpliceOptions(), log, realign=stand_ins.realign, finish=stand_ins.finish,
+                                    since=0)
+    assert out is stand_ins.tempo and log.warnings[0] == "tempo run"
+    assert "smoothed further where one take ran faster" in log.warnings[1] and "mismatch 0.300 against 0.600" in log.warnings[1]
+
+    stand_ins.mismatch.update({"first": 0.4, "second": 0.6, "tempo": 0.5})  # worse: the first pair and its notes stay
     log = Log()
     log.note("first run")
     out = R.position_second_opinion(first, SpliceOptions(), log, realign=stand_ins.realign, finish=stand_ins.finish,
                                     since=0)
     assert out is first and log.warnings == ["first run"]
-    stand_ins.mismatch.update({False: 0.5, True: 0.5})  # a tie keeps the first
+    stand_ins.mismatch.update({"first": 0.5, "second": 0.5, "tempo": 0.5})  # a tie keeps the first
     assert R.position_second_opinion(first, SpliceOptions(), Log(), realign=stand_ins.realign,
                                      finish=stand_ins.finish, since=0) is first
+    stand_ins.mismatch.update({"first": 0.5, "second": 0.4, "tempo": float("nan")})  # a NaN is never the best
+    assert R.position_second_opinion(first, SpliceOptions(), Log(), realign=stand_ins.realign,
+                                     finish=stand_ins.finish, since=0) is stand_ins.second
+
+
+def test_tempo_matching_switched_off_aligns_once_more(stand_ins, monkeypatch):
+    monkeypatch.setattr(D, "TEMPO_MATCHED", False)
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.4})
+    out = R.position_second_opinion(_pair(), SpliceOptions(), Log(), realign=stand_ins.realign,
+                                    finish=stand_ins.finish, since=0)
+    assert out is stand_ins.second and stand_ins.calls == [(D.POSITION_WEIGHT_RECHECK, False)]
 
 
 @pytest.mark.parametrize("case", ["weight given", "clean pair", "hand-only", "optical", "placed apart", "not a number",

@@ -31,6 +31,23 @@ pytestmark = [pytest.mark.slow,
 SPLICE = [sys.executable, "-c", "import sys; from splicer.server_client import main; sys.exit(main())"]
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _hangup_at_its_default():
+    """The commands start as from a terminal, with SIGHUP at its default.  A suite run under
+    ``nohup`` would hand its ignored SIGHUP to every command, whose run then rightly ignores it
+    too (the ``nohup splice`` test below), and the hang-up tests would find runs that finish."""
+    if not hasattr(signal, "SIGHUP"):
+        yield
+        return
+    before = signal.getsignal(signal.SIGHUP)
+    if before == signal.SIG_IGN:
+        signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGHUP, before)
+
+
 def _env(sock: str, **extra) -> dict:
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
                SPLICER_SERVER_SOCKET=sock)

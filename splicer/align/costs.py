@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit, prange
-from ..filters import gaussian_filter1d
+from ..filters import gaussian_filter1d, varying_gaussian_filter1d
 
 from ..defaults import DEAD_ZONE, SIGN_RAMP, SMOOTH_S
 from ..rig.markers import Markers
@@ -198,7 +198,9 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
     smooth_s : float
         Standard deviation (seconds) of the Gaussian that smooths the shoulder-relative
         markers before differentiating: capture noise flips signs otherwise.  Default: the
-        splice's, :data:`splicer.defaults.SMOOTH_S`.
+        splice's, :data:`splicer.defaults.SMOOTH_S`.  Markers with a ``blur``
+        (:class:`~splicer.rig.markers.Markers`) are smoothed first by a further ``blur * smooth_s``
+        at each frame.
     dead_zone : float
         Components below ``dead_zone`` times the motion's RMS velocity (acceleration)
         count as zero, so a hold reads as a hold and a confined hand capture is judged on
@@ -212,6 +214,8 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         Also prepare the position term's inputs (:func:`position_features`).
     """
     rel = markers.relative()
+    if markers.blur is not None:  # tempo-matched smoothing first (splicer.align.tempo)
+        rel = varying_gaussian_filter1d(rel, markers.blur * (smooth_s * markers.fps), axis=0)
     vel, acc = _smooth_derivatives(rel, markers.fps, smooth_s)
     rms_v = float(np.sqrt(np.mean(vel**2))) if vel.size else 0.0
     rms_a = float(np.sqrt(np.mean(acc**2))) if acc.size else 0.0

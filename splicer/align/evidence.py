@@ -157,9 +157,10 @@ def costs_along(cost, path: np.ndarray, n: int, m: int) -> np.ndarray:
 
 
 def played_backwards(markers: Markers) -> Markers:
-    """The same markers in reverse time order (frame ``k`` becomes frame ``T - 1 - k``)."""
+    """The same markers in reverse time order (frame ``k`` becomes frame ``T - 1 - k``), their
+    ``blur`` with them."""
     return Markers(markers.points[::-1], markers.shoulder[::-1], markers.heading[::-1], markers.up, markers.fps,
-                   markers.side)
+                   markers.side, None if markers.blur is None else markers.blur[::-1])
 
 
 def match_evidence(body: Markers, hands: Markers, *, ends: str, others=(), fps: float = CHECK_FPS,

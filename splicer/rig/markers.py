@@ -49,6 +49,12 @@ class Markers:
     fps : float
         Frames per second.
     side : str
+    blur : np.ndarray [shape=(T,)] or None
+        Extra smoothing of the phase metric's markers at each frame, in multiples of that
+        metric's own smoothing (unitless, >= 0), applied before it
+        (:func:`splicer.align.costs.phase_features`): the tempo-matched smoothing of
+        :mod:`splicer.align.tempo`.  None (the default): none.  Nothing else reads it, and
+        resampling the markers drops it.
     """
 
     points: np.ndarray
@@ -57,12 +63,20 @@ class Markers:
     up: int
     fps: float
     side: str
+    blur: np.ndarray | None = None
 
     def __post_init__(self):
         for name in ("points", "shoulder", "heading"):
             a = np.array(getattr(self, name), dtype=np.float64)
             a.setflags(write=False)
             object.__setattr__(self, name, a)
+        if self.blur is not None:
+            b = np.array(self.blur, dtype=np.float64)
+            if b.shape != (self.points.shape[0],) or not (np.all(np.isfinite(b)) and (b.size == 0 or b.min() >= 0)):
+                raise ValueError(f"blur must hold one finite width >= 0 per frame ({self.points.shape[0]}), "
+                                 f"got shape {b.shape}")
+            b.setflags(write=False)
+            object.__setattr__(self, "blur", b)
 
     @property
     def n_frames(self) -> int:

@@ -5,11 +5,14 @@ the arms' shoulder-relative positions by :data:`splicer.defaults.POSITION_WEIGHT
 D1's direction signs (:func:`splicer.stages.align.position_weights`).  Where the arm's noise
 leaves the signs little to go by (a slow gesture: the noise per frame is as large as the
 motion), a larger weight can be far better, and elsewhere a little worse.  So the pair is aligned
-again at :data:`splicer.defaults.POSITION_WEIGHT_RECHECK`, its time maps made as the first's
-were (smoothed, refined by the wrist), and the pair of maps along which the hand moves relative
-to the forearm more alike in both takes (:func:`splicer.align.wrist.rate_mismatch`: a signal
-pass 1 does not read, which the arm's noise leaves clean) is kept, with a note.  Measured on the
-ground-truth protocol (benchmarks/HISTORY.md, 0.18.0).
+again at :data:`splicer.defaults.POSITION_WEIGHT_RECHECK`, and (0.27.0) once more at that weight
+with each take's phase markers smoothed to the tempo the first maps show (:func:`tempo_markers`,
+:mod:`splicer.align.tempo`: noise matching's smoothing blurs the faster take over more of the
+performance), their time maps made as the first's were (smoothed, refined by the wrist), and the
+pair of maps along which the hand moves relative to the forearm most alike in both takes
+(:func:`splicer.align.wrist.rate_mismatch`: a signal pass 1 does not read, which the arm's noise
+leaves clean) is kept, with a note.  Measured on the ground-truth protocol (benchmarks/HISTORY.md,
+0.18.0 and 0.27.0).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from .. import defaults as D
 from ..options import SpliceOptions
 from .log import Log
 
-__all__ = ["wants_second_opinion", "map_mismatch", "position_second_opinion"]
+__all__ = ["wants_second_opinion", "map_mismatch", "tempo_markers", "position_second_opinion"]
 
 
 def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
@@ -61,9 +64,45 @@ def map_mismatch(sides: dict, frames: np.ndarray) -> float:
     return float(np.mean(vals)) if vals else float("nan")
 
 
+def tempo_markers(sides: dict) -> dict:
+    """Each side's markers with the tempo-matched smoothing of :mod:`splicer.align.tempo`, read
+    from ``sides``' time maps (both sides' slopes averaged: they share one hands take)."""
+    from ..align.tempo import map_tempo, mean_map, tempo_blur
+
+    maps = {s: r.markers.spaces.hands_to_common(np.asarray(r.hands_frame, dtype=np.float64)) for s, r in sides.items()}
+    first = next(iter(sides.values())).markers
+    tempo = map_tempo(list(maps.values()), first.spaces.body_fps)
+    both = mean_map(list(maps.values()))
+    out = {}
+    for s, r in sides.items():
+        mk = r.markers
+        body_blur, hands_blur = tempo_blur(tempo, both, mk.hands.n_frames)
+        out[s] = replace(mk, body=replace(mk.body, blur=body_blur), hands=replace(mk.hands, blur=hands_blur))
+    return out
+
+
+def _common_frames(*pairs) -> np.ndarray | None:
+    """The body frames every side of every pair of maps covers, when they are one run of at
+    least 3 frames; else None."""
+    both = None
+    for pair in pairs:
+        for r in pair.values():
+            f = np.isfinite(np.asarray(r.hands_frame, dtype=np.float64))
+            both = f if both is None else both & f
+    frames = np.flatnonzero(both)
+    if len(frames) < 3 or frames[-1] - frames[0] + 1 != len(frames):
+        return None
+    return frames
+
+
 def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, realign, finish, since: int) -> dict:
-    """Keep the first pair of time maps or the second opinion's, whichever the hand's motion
-    relative to the forearm matches better along.
+    """Keep the first pair of time maps or a second opinion's, whichever the hand's motion
+    relative to the forearm matches best along.
+
+    The second opinions: the pair aligned with the arms' positions weighed
+    :data:`~splicer.defaults.POSITION_WEIGHT_RECHECK`; and (:data:`~splicer.defaults.TEMPO_MATCHED`)
+    the same with the phase metric's markers smoothed to the tempo the first maps show
+    (:func:`tempo_markers`).
 
     Parameters
     ----------
@@ -71,40 +110,47 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
         The pair's time maps after the wrist's refinement (:func:`splicer.stages.transfer.refine_time_maps`).
     opts : SpliceOptions
     log : Log
-        Its warnings from ``since`` on (the first alignment's) are replaced by the second's when
-        that is kept.
+        Its warnings from ``since`` on (the first alignment's) are replaced by the kept one's.
     realign : callable
-        ``realign(opts, log) -> dict of Alignment``: the pair aligned with ``opts``
-        (:func:`splicer.stages.align.align_pair`).
+        ``realign(opts, log, markers=None) -> dict of Alignment``: the pair aligned with ``opts``
+        (:func:`splicer.stages.align.align_pair`), on ``markers`` (dict of str -> SideMarkers)
+        when given.
     finish : callable
         ``finish(aligned, log) -> dict of SideResult``: the time-map stages that made ``sides``.
 
     Returns
     -------
     dict of str -> SideResult
-        ``sides`` itself when the pair does not qualify (:func:`wants_second_opinion`) or the
-        second opinion matches no better.
+        ``sides`` itself when the pair does not qualify (:func:`wants_second_opinion`) or no
+        second opinion matches better.
     """
     if not wants_second_opinion(sides, opts):
         return sides
-    second = Log(log._progress)  # the other choice's own notes, kept only with its alignment
-    other = finish(realign(replace(opts, position_weight=D.POSITION_WEIGHT_RECHECK), second), second)
+    heavier = replace(opts, position_weight=D.POSITION_WEIGHT_RECHECK)
+    candidates = []  # (label, maps, their own log)
+    second = Log(log._progress)  # each choice's own notes, kept only with its alignment
+    candidates.append(("positions", finish(realign(heavier, second), second), second))
     log.tick("position second opinion")
-    both = None
-    for pair in (sides, other):
-        for r in pair.values():
-            f = np.isfinite(np.asarray(r.hands_frame, dtype=np.float64))
-            both = f if both is None else both & f
-    frames = np.flatnonzero(both)
-    if len(frames) < 3 or frames[-1] - frames[0] + 1 != len(frames):
+    if D.TEMPO_MATCHED:
+        third = Log(log._progress)
+        candidates.append(("tempo", finish(realign(heavier, third, markers=tempo_markers(sides)), third), third))
+        log.tick("tempo-matched second opinion")
+    frames = _common_frames(sides, *(c[1] for c in candidates))
+    if frames is None:
         return sides
-    first, again = map_mismatch(sides, frames), map_mismatch(other, frames)
+    first = map_mismatch(sides, frames)
+    scored = [(map_mismatch(maps, frames), label, maps, lg) for label, maps, lg in candidates]
+    best = min(scored, key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
+    again, label, maps, lg = best
     if not again < first:
         return sides
     del log.warnings[since:]
-    log.warnings.extend(second.warnings)
+    log.warnings.extend(lg.warnings)
+    how = "" if label == "positions" else (
+        ", its markers smoothed further where one take ran faster than the other (so that both are blurred over the "
+        "same span of the performance)")
     log.note(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions weighed "
-             f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}; along that alignment the hand "
+             f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{how}; along that alignment the hand "
              f"moves relative to the forearm more alike in both takes (mismatch {again:.3f} against {first:.3f}), "
              f"and it is kept")
-    return other
+    return maps

@@ -41,7 +41,8 @@ def test_sample_end_to_end(tmp_path, capsys):
     for side in ("left", "right"):
         s = report["sides"][side]
         assert len(s["hands_frame"]) == 601
-        assert set(s["pass1"]) == {"band_frames", "cost", "position_weight", "arms", "backwards_ratio", "body_holds"}
+        assert set(s["pass1"]) == {"band_frames", "cost", "position_weight", "arms", "backwards_ratio", "body_holds",
+                                  "tempo_matched"}
         assert s["pass1"]["body_holds"] == []  # the sample's body never holds still
         assert set(s["pass2"]) == {"band_frames", "cost"}
         assert 0.0 < s["pass1"]["backwards_ratio"] < 0.5  # the sample's hands are its body's performance (0.33)

@@ -423,10 +423,13 @@ def test_a_second_performance_at_another_tempo_is_smoothed_to_it(monkeypatch):
     on = splice(sep.body, sep.hands)
     notes = on.report.to_dict()["warnings"]
     assert any("smoothed further where one take ran faster" in w for w in notes)
+    assert all(d["pass1"]["tempo_matched"] and d["pass1"]["position_weight"] == D.POSITION_WEIGHT_RECHECK
+               for d in on.report.to_dict()["sides"].values())
     assert "tempo-matched second opinion" in on.report.to_dict()["timings_s"]
     monkeypatch.setattr(D, "TEMPO_MATCHED", False)
     off = splice(sep.body, sep.hands)
     assert not any("smoothed further" in w for w in off.report.to_dict()["warnings"])
+    assert not any(d["pass1"]["tempo_matched"] for d in off.report.to_dict()["sides"].values())
     assert mean_error(on) < 0.06 and mean_error(off) > 0.15
 
 

@@ -78,6 +78,9 @@ class PassResult:
     arm_uncovered : tuple of float
         Open ends over several arms: each arm's own uncovered penalty (its own costs' quantile),
         for :func:`arm_paths`; empty otherwise.
+    tempo_matched : bool
+        Pass 1: its markers carried a ``blur`` (:mod:`splicer.align.tempo`), applied in its pass
+        at the splice's rate.
     """
 
     path: np.ndarray
@@ -99,6 +102,7 @@ class PassResult:
     arm_costs: tuple = ()
     arm_uncovered: tuple = ()
     held_rows: object = None  # np.ndarray (n,) bool or None: the full-rate DTW's held rows (body holds)
+    tempo_matched: bool = False  # pass 1 read markers smoothed to the other take's tempo (Markers.blur)
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
@@ -141,6 +145,11 @@ def _arms(body, hands, smooth_s, position_weight, others) -> list:
                              f"{a.body.fps:g} / {a.hands.fps:g} fps; the first has {body.n_frames} x {hands.n_frames} "
                              f"at {body.fps:g} / {hands.fps:g}: arms sharing a time map share their takes' frames")
     return arms
+
+
+def _blurred(arms: list) -> bool:
+    """Whether any arm's markers carry the tempo-matched smoothing (:attr:`Markers.blur`)."""
+    return any(x.blur is not None for a in arms for x in (a.body, a.hands))
 
 
 def _resampled(arms: list, fps: float) -> list:
@@ -393,7 +402,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     res = _run(kept, band, progress, step_penalty=step_penalty, horizontal_weight=hw, held_rows=held_rows)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw,
                       notes=notes, kept_cost=kept, position_weight=float(position_weight), arms=len(arms),
-                      arm_costs=each, held_rows=held_rows)
+                      arm_costs=each, held_rows=held_rows, tempo_matched=_blurred(arms))
 
 
 def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
@@ -453,7 +462,7 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
                horizontal_weight=horizontal_weight, held_rows=held_rows)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
                       float(horizontal_weight), located, body.fps, notes, kept, float(position_weight), len(arms),
-                      each, arm_u, held_rows)
+                      each, arm_u, held_rows, tempo_matched=_blurred(arms))
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

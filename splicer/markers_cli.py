@@ -152,6 +152,7 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
                            refine_time_maps, time_map)
     from .stages.markers import to_common
     from .report import Report, SideReport
+    from .transfer.timemap import mean_map
     from .io.trajectories import Trajectories, read_trajectories
 
     log = log or Log()
@@ -200,12 +201,8 @@ def align_marker_files(body, hands, *, config=None, side: str = "both", max_gap_
         pins = tuple({"body": p.body, "hands": p.hands, "tolerance": p.tolerance, "line": p.line} for p in sm.pins)
         side_reports[s] = SideReport(s, tm, info(alignment.pass1), info(alignment.pass2), pins, {}, extra)
         log.tick("align")
-    stack = np.stack(list(maps.values()))
-    ok = np.isfinite(stack)
-    count = ok.sum(axis=0)
     # markers of no side follow the mean map of the sides covering each frame (NaN: none does)
-    mean_map = np.where(count > 0, np.where(ok, stack, 0.0).sum(axis=0) / np.maximum(count, 1), np.nan)
-    pts = retime(ht, mean_map, fps=bt.fps, first_frame=bt.first_frame)
+    pts = retime(ht, mean_map(list(maps.values())), fps=bt.fps, first_frame=bt.first_frame)
     if len(maps) > 1:  # each arm's markers follow their own side's map
         for s, tm in maps.items():
             retime(ht, tm, fps=bt.fps, first_frame=bt.first_frame, columns=columns[s], into=pts)

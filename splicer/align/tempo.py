@@ -28,8 +28,9 @@ import numpy as np
 
 from ..defaults import TEMPO_RANGE, TEMPO_SLOPE_S
 from ..filters import gaussian_filter1d
+from ..transfer.timemap import mean_map
 
-__all__ = ["mean_map", "map_tempo", "tempo_blur"]
+__all__ = ["map_tempo", "tempo_blur"]
 
 
 def _fill(x: np.ndarray) -> np.ndarray:
@@ -41,21 +42,6 @@ def _fill(x: np.ndarray) -> np.ndarray:
         return x
     idx = np.arange(len(x))
     return np.interp(idx, idx[ok], x[ok])
-
-
-def mean_map(rows) -> np.ndarray:
-    """The mean of equally long rows (time maps, slopes), each frame over the rows that are
-    finite there; NaN where none is.
-
-    Examples
-    --------
-    >>> mean_map([np.array([1.0, np.nan, np.nan]), np.array([3.0, 4.0, np.nan])]).tolist()
-    [2.0, 4.0, nan]
-    """
-    stack = np.vstack([np.asarray(r, dtype=np.float64) for r in rows])
-    ok = np.isfinite(stack)
-    count = ok.sum(axis=0)
-    return np.where(count > 0, np.where(ok, stack, 0.0).sum(axis=0) / np.maximum(count, 1), np.nan)
 
 
 def map_tempo(maps, fps: float, *, slope_s: float = TEMPO_SLOPE_S, limits: tuple = TEMPO_RANGE) -> np.ndarray:
@@ -91,11 +77,7 @@ def map_tempo(maps, fps: float, *, slope_s: float = TEMPO_SLOPE_S, limits: tuple
         c = np.asarray(c, dtype=np.float64)
         if c.ndim != 1:
             raise ValueError(f"each map must be one-dimensional, got shape {c.shape}")
-        g = np.full(len(c), np.nan)
-        if len(c) > 1:
-            g[1:-1] = 0.5 * (c[2:] - c[:-2])
-            g[0], g[-1] = c[1] - c[0], c[-1] - c[-2]
-        rows.append(g)
+        rows.append(np.gradient(c) if len(c) > 1 else np.full(len(c), np.nan))
     if not rows:
         raise ValueError("map_tempo needs at least one map")
     if len({len(r) for r in rows}) != 1:

@@ -66,17 +66,17 @@ def map_mismatch(sides: dict, frames: np.ndarray) -> float:
 
 def tempo_markers(sides: dict) -> dict:
     """Each side's markers with the tempo-matched smoothing of :mod:`splicer.align.tempo`, read
-    from ``sides``' time maps (both sides' slopes averaged: they share one hands take)."""
-    from ..align.tempo import map_tempo, mean_map, tempo_blur
+    from ``sides``' time maps (both sides' slopes averaged: they share one hands take, so one blur
+    serves both)."""
+    from ..align.tempo import map_tempo, tempo_blur
+    from ..transfer.timemap import mean_map
 
-    maps = {s: r.markers.spaces.hands_to_common(np.asarray(r.hands_frame, dtype=np.float64)) for s, r in sides.items()}
+    maps = [r.markers.spaces.hands_to_common(np.asarray(r.hands_frame, dtype=np.float64)) for r in sides.values()]
     first = next(iter(sides.values())).markers
-    tempo = map_tempo(list(maps.values()), first.spaces.body_fps)
-    both = mean_map(list(maps.values()))
+    body_blur, hands_blur = tempo_blur(map_tempo(maps, first.spaces.body_fps), mean_map(maps), first.hands.n_frames)
     out = {}
     for s, r in sides.items():
         mk = r.markers
-        body_blur, hands_blur = tempo_blur(tempo, both, mk.hands.n_frames)
         out[s] = replace(mk, body=replace(mk.body, blur=body_blur), hands=replace(mk.hands, blur=hands_blur))
     return out
 

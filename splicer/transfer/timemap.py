@@ -19,7 +19,7 @@ from ..model.rotations import quat_hemisphere, quat_median, quat_slerp
 from ..runs import true_runs
 from .sampling import sample_rotations
 
-__all__ = ["smooth_time_map", "monotone_pinned", "median_rotations", "blend_jumps", "pin_constraints"]
+__all__ = ["smooth_time_map", "monotone_pinned", "median_rotations", "blend_jumps", "pin_constraints", "mean_map"]
 
 
 def pin_constraints(time_map: np.ndarray, pins) -> np.ndarray:
@@ -259,3 +259,18 @@ def frame_ranges(mask: np.ndarray, *, min_gap: int = 0) -> list[list[int]]:
         else:
             out.append([int(s), int(e)])
     return out
+
+
+def mean_map(rows) -> np.ndarray:
+    """The mean of equally long rows (time maps of the sides, their slopes), each frame over the
+    rows that are finite there (the sides that cover it); NaN where none is.
+
+    Examples
+    --------
+    >>> mean_map([np.array([1.0, np.nan, np.nan]), np.array([3.0, 4.0, np.nan])]).tolist()
+    [2.0, 4.0, nan]
+    """
+    stack = np.vstack([np.asarray(r, dtype=np.float64) for r in rows])
+    ok = np.isfinite(stack)
+    count = ok.sum(axis=0)
+    return np.where(count > 0, np.where(ok, stack, 0.0).sum(axis=0) / np.maximum(count, 1), np.nan)

@@ -203,7 +203,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
     and its HTTP server on a free port; it is shut down on exit, without the traceback a worker's
     last heartbeat may log while it closes (``splicer._dask_shutdown``).  Its workers keep glibc's
     default memory trimming (Dask's ``MALLOC_TRIM_THRESHOLD_=65536`` costs a splice 12-15 %
-    more CPU).
+    more CPU) and run without Dask's sampling profiler (6-8 % of a batch's wall time).
     """
     try:
         from distributed import Client, LocalCluster
@@ -227,7 +227,11 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
     # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (memory back to the OS sooner);
     # that fixes glibc's mmap threshold too, so every large array of a splice is mapped, faulted
     # in and unmapped again: 12-15 % more CPU per pair (bench_batch.py).  Not for our workers.
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+    # Nor Dask's sampling profiler (for the dashboard's profile page): every 10 ms it takes the
+    # GIL from the pair's thread to read its stack; off, a warm batch of 8 pairs took 6-8 % less
+    # wall time (0.27.1, benchmarks/HISTORY.md).
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                          "distributed.worker.profile.enabled": False}):
         # ":0": any free port (the scheduler serves HTTP even without the dashboard; the default
         # :8787 may be taken by another cluster on this machine)
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0",

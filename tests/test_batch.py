@@ -340,3 +340,25 @@ def test_local_cluster_workers_drop_only_the_closing_heartbeat_traceback():
         assert f.filter(rec("Unexpected exception during heartbeat. Closing worker."))
     del w
     assert f.filter(rec(HEARTBEAT_FAILED + "."))  # the worker gone: the filter passes everything
+
+
+def test_local_cluster_workers_keep_malloc_trimming_and_run_no_profiler():
+    """dask_client's own workers: glibc's default memory trimming (Dask's MALLOC_TRIM_THRESHOLD_
+    made a splice cost 12-15 % more CPU) and no sampling profiler (it takes the GIL from the
+    pair's thread every 10 ms: 6-8 % of a warm batch's wall time)."""
+    from splicer.batch import dask_client
+
+    def check(dask_worker):
+        import os
+
+        return (os.environ.get("MALLOC_TRIM_THRESHOLD_"), sorted(k for k in dask_worker.periodic_callbacks
+                                                                 if k.startswith("profile")))
+
+    with dask_client(workers=1) as cl:
+        on_workers = list(cl.run(check).values())
+    assert on_workers == [(None, [])]
+    # the check reads what it claims: a plain LocalCluster's worker has both
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=":0") as c, \
+            distributed.Client(c) as cl:
+        plain = list(cl.run(check).values())
+    assert plain == [("65536", ["profile", "profile-cycle"])]

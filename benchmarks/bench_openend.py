@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from splicer.align.passes import pass1, path_median, warp_markers  # noqa: E402
 from splicer.align.confidence import pass_confidence  # noqa: E402
 from splicer.rig.markers import Markers  # noqa: E402
-from splicer.align.openend import OPEN_COARSE_FPS, coarse_rate  # noqa: E402
+from splicer.align.openend import OPEN_COARSE_FPS, locate_rates  # noqa: E402
 
 FPS = 30.0
 
@@ -76,9 +76,12 @@ def main(argv=None) -> int:
     hands = concat([gesture_markers(rng, pre), warp_markers(body, warp), gesture_markers(rng, post)])
     m = hands.n_frames
     truth = pre + np.interp(np.arange(n), warp, np.arange(span))
-    cf = coarse_rate(n, m, FPS, OPEN_COARSE_FPS)
+    rates = locate_rates(n, m, FPS, OPEN_COARSE_FPS)
+    levels = "; then ".join(f"{cf:.2f} fps ({int(n * cf / FPS):,} x {int(m * cf / FPS):,}"
+                            + (" cells, all of them)" if k == 0 else " frames, in a band around the path before)")
+                            for k, cf in enumerate(rates))
     print(f"body {n:,} frames ({n / FPS / 60:.1f} min), hands {m:,} frames ({m / FPS / 60:.1f} min), {FPS:g} fps; "
-          f"coarse pass at {cf:.2f} fps: {int(n * cf / FPS):,} x {int(m * cf / FPS):,} cells")
+          f"locating pass at {levels}")
     h0 = hwm_mb()
     t0 = time.perf_counter()
     res = pass1(body, hands, width=args.width_s * FPS, ends="open")

@@ -475,6 +475,58 @@ def test_pass1_locates_the_body_inside_a_longer_take(sample_markers, seed):
     assert np.abs(path_median(fixed.path, n) - truth).mean() > 10 * err.mean()
 
 
+def test_locate_rates_levels():
+    """Worked answers: one level where the whole matrix at 10 fps fits; else the whole matrix at
+    the rate that fits the first level's cells, then rates about 3x apart up to 10 fps."""
+    from splicer.align.openend import locate_rates
+    assert locate_rates(600, 1200, 30.0, 10.0) == [10.0]
+    assert locate_rates(600, 1200, 5.0, 10.0) == [5.0]                    # the take's own rate is lower
+    first = 30 * np.sqrt(1000 / 720_000)                                  # 1.118 fps: 22 x 45 frames
+    assert locate_rates(600, 1200, 30.0, 10.0, max_cells=1000) == pytest.approx([first, np.sqrt(10 * first), 10.0])
+    # 24,000 x 24,000 frames at 30 fps: 8,000 x 8,000 at 10 fps; 100 x 100 (10,000 cells) at 0.125 fps,
+    # 80x below 10 fps: four steps of 80 ** (1 / 4) = 2.99x
+    r = locate_rates(24_000, 24_000, 30.0, 10.0, max_cells=1_000_000, full_cells=10_000)
+    assert r[0] == pytest.approx(0.125) and r[-1] == 10.0 and len(r) == 5
+    assert np.allclose(np.diff(np.log(r)), np.log(80.0) / 4)
+    assert locate_rates(24_000, 24_000, 30.0, 10.0, max_cells=1_000_000, full_cells=10_000, step=1.0) == \
+        pytest.approx([30 * np.sqrt(1_000_000) / 24_000])                 # no steps: the one level
+
+
+def test_pass1_locating_levels_find_the_same_overlap(sample_markers, monkeypatch):
+    """A take too long for the whole matrix at 10 fps (here: max_coarse_cells made small) is located
+    at a lower rate first, then at 10 fps in a band around that path: the same start, end and path
+    as one level at 10 fps, and pins still hold."""
+    import splicer.align.passes as P
+    full, other = sample_markers
+    body = _cut(full, 140, 556)
+    n, fps = body.n_frames, body.fps
+    rng = np.random.default_rng(0)
+    m_mid = int(n * 1.1)
+    warp = _warp(rng, m_mid, n)
+    pre = post = int(3 * fps)
+    hands = _cat([_still(body, 0, pre, rng), P.warp_markers(body, warp), _cut(other, 0, post)])
+    truth = pre + np.interp(np.arange(n), warp, np.arange(m_mid))
+    one = P.pass1(body, hands, width=30.0, ends="open")
+    monkeypatch.setattr(P, "LOCATE_BAND_S", 3.0)                         # a band narrower than the take
+    small = 6_000                                                          # 10 fps: 139 x 212 = 29,468 cells
+    seen = []
+    lv = P.pass1(body, hands, width=30.0, ends="open", max_coarse_cells=small, progress=seen.append)
+    loc = lv.located
+    assert loc.fps == pytest.approx(10.0)                                  # the last level: the usual rate
+    assert int(np.sum(loc.band.hi - loc.band.lo + 1)) < loc.band.n * loc.band.m / 2      # a band, not all
+    assert lv.covered == one.covered == (0, n - 1)
+    assert abs(lv.path[0, 1] - pre) <= 1
+    np.testing.assert_array_equal(lv.path, one.path)
+    err = np.abs(P.path_median(lv.path, n) - truth)
+    assert err.mean() < 1.0
+    assert seen == [0.25, 0.5, 1.0]                                        # two levels share the first half
+    pins = [Constraint(50, pre + int(warp[50]) + 1, 2), Constraint(300, pre + int(warp[300]), 0)]
+    pinned = P.pass1(body, hands, width=30.0, ends="open", max_coarse_cells=small, constraints=pins)
+    for c in pins:
+        js = pinned.path[pinned.path[:, 0] == c.x, 1]
+        assert js.size and np.abs(js - c.y).max() <= c.tolerance
+
+
 def test_pass1_hands_cover_the_middle_half(sample_markers):
     from splicer.align.passes import pass1, warp_markers
     full, _ = sample_markers

@@ -18,7 +18,7 @@ from ..errors import BandError
 from .costs import PhaseFeatures, d1_cost
 
 __all__ = ["UNCOVERED_QUANTILE", "OPEN_HORIZONTAL_WEIGHT", "OPEN_COARSE_FPS", "MAX_COARSE_CELLS",
-           "uncovered_penalty", "coarse_rate", "offset_band", "d1_sample", "EndClosure", "close_end"]
+           "LOCATE_FULL_CELLS", "LOCATE_STEP", "LOCATE_BAND_S", "uncovered_penalty", "coarse_rate", "locate_rates", "offset_band", "d1_sample", "EndClosure", "close_end"]
 
 #: Default quantile of the local costs used as the per-row penalty of uncovered body frames.
 from ..defaults import UNCOVERED_QUANTILE  # noqa: E402  (one place of defaults)
@@ -36,6 +36,15 @@ OPEN_COARSE_FPS = 10.0
 
 #: Largest coarse matrix of the open-ended locating pass (cells = bytes of DTW steps): 64 Mi.
 MAX_COARSE_CELLS = 1 << 26
+
+#: Long takes (the whole matrix at :data:`OPEN_COARSE_FPS` over :data:`MAX_COARSE_CELLS`): the
+#: locating pass searches the whole matrix at the rate that fits this many cells, then each
+#: finer rate (:data:`LOCATE_STEP` times the last, up to :data:`OPEN_COARSE_FPS`) in a band of
+#: :data:`LOCATE_BAND_S` around the coarser path (:func:`locate_rates`): the 20-minute pair's
+#: locating pass searched 67 M cells per arm at 6.35 fps before (0.27.1).
+LOCATE_FULL_CELLS = 1 << 24
+LOCATE_STEP = 3.0
+LOCATE_BAND_S = 30.0
 
 
 def uncovered_penalty(costs, quantile: float = UNCOVERED_QUANTILE, *, max_samples: int = 1_000_000,
@@ -102,6 +111,35 @@ def coarse_rate(n: int, m: int, fps: float, coarse_fps: float, max_cells: int = 
     if not (coarse_fps > 0 and math.isfinite(coarse_fps)):
         raise ValueError(f"coarse_fps must be positive and finite, got {coarse_fps!r}")
     return float(min(fps, coarse_fps, fps * math.sqrt(max_cells / max(1.0, float(n) * float(m)))))
+
+
+def locate_rates(n: int, m: int, fps: float, coarse_fps: float, max_cells: int = MAX_COARSE_CELLS, *,
+                 full_cells: int = LOCATE_FULL_CELLS, step: float = LOCATE_STEP) -> list[float]:
+    """Rates of the open-ended locating pass's levels, coarsest first.
+
+    One level, :func:`coarse_rate`, when the whole matrix at ``min(fps, coarse_fps)`` has at most
+    ``max_cells`` cells.  Else the first level is the rate at which the whole matrix has
+    ``full_cells`` cells (at most ``max_cells``) and the last ``min(fps, coarse_fps)``, with levels between them spaced
+    evenly in log rate, each about ``step`` times the last; every level but the first searches a
+    band around the path of the one before (:func:`splicer.align.paths.guided_band`,
+    :data:`LOCATE_BAND_S`).
+
+    Examples
+    --------
+    >>> locate_rates(600, 1200, 30.0, 10.0)                  # a 20-s pair: one level at 10 fps
+    [10.0]
+    >>> [round(r, 2) for r in locate_rates(72_001, 83_178, 60.0, 10.0)]   # the 20-minute pair
+    [3.18, 10.0]
+    >>> [round(r, 2) for r in locate_rates(216_001, 252_000, 60.0, 10.0)]  # the hour-long pair
+    [1.05, 3.25, 10.0]
+    """
+    want = min(float(fps), float(coarse_fps))
+    one = coarse_rate(n, m, fps, coarse_fps, max_cells)
+    if one >= want * (1.0 - 1e-9) or not step > 1.0:
+        return [one]
+    first = coarse_rate(n, m, fps, coarse_fps, min(full_cells, max_cells))
+    k = max(1, int(round(math.log(want / first) / math.log(step))))  # steps of about ``step`` each
+    return [first * (want / first) ** (i / k) for i in range(k)] + [want]
 
 
 def offset_band(n: int, m: int, offset: float, width: float, constraints=()) -> Band:

@@ -19,8 +19,8 @@ from ..rig.markers import Markers
 from .costcache import CACHE_BYTES, CachedBandCost
 from .holds import hold_band
 from .costs import PalmFeatures, d1_cost, d2_cost, palm_features, phase_features
-from .openend import (MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT, UNCOVERED_QUANTILE, coarse_rate,
-                      d1_sample, offset_band, uncovered_penalty)
+from .openend import (LOCATE_BAND_S, MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HORIZONTAL_WEIGHT, UNCOVERED_QUANTILE,
+                      coarse_rate, d1_sample, locate_rates, offset_band, uncovered_penalty)
 from .paths import (_coarse_constraints, coarse_constraints, compose, guided_band, hold_ends, path_median,  # noqa: F401
                     remap_constraints, resample_markers, warp_markers)
 
@@ -410,34 +410,48 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
                 cache_bytes, held_rows=None):
     body, hands, position_weight = arms[0].body, arms[0].hands, arms[0].position_weight
     n, m = body.n_frames, hands.n_frames
-    cfps = coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)
-    factor = body.fps / cfps
-    if factor > 1.0 + 1e-9:
-        carms = _resampled(arms, cfps)
-    else:
-        factor, carms = 1.0, arms
-    nc, mc = carms[0].body.n_frames, carms[0].hands.n_frames
+    # long takes: the whole matrix at a low rate, then each finer rate around the coarser path
+    rates = [coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)] if offset_s is not None else \
+        locate_rates(n, m, body.fps, coarse_fps, max_coarse_cells)
     notes: tuple = ()
-    ccons = _coarse_constraints(constraints, factor, nc, mc) if factor > 1.0 else list(constraints)
-    cfeat = _arm_features(carms, dead_zone, sign_ramp)
-    d1c, ceach = _arms_cost(carms, cfeat, theta)
-    u = uncovered_cost
-    arm_u: tuple = ()
-    if u is None:
-        u = uncovered_penalty(_arms_sample(carms, cfeat, theta), uncovered_quantile)
-        if len(carms) > 1:  # each arm's own, for its own path (arm_paths)
-            arm_u = tuple(uncovered_penalty(_arms_sample([a], [f], theta), uncovered_quantile)
-                          for a, f in zip(carms, cfeat))
-    if offset_s is None:
-        cband = full_band(nc, mc, ccons)
-    else:
-        cw = (coarse_width if coarse_width is not None else 30.0 * body.fps) / factor
-        cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
-    # the bar: the locating pass its first half, the full-rate pass the second (the hour-long pair's
-    # locating pass took 11 s, all of it at 0 % before)
-    first = None if progress is None else (lambda f: progress(0.5 * f))
-    coarse = _run(d1c, cband, first, open_begin=True, open_end=True, uncovered_cost=u,
-                  step_penalty=step_penalty, horizontal_weight=horizontal_weight)
+    coarser = None  # the pass of the level before
+    for level, cfps in enumerate(rates):
+        factor = body.fps / cfps
+        if factor > 1.0 + 1e-9:
+            carms = _resampled(arms, cfps)
+        else:
+            factor, carms = 1.0, arms
+        nc, mc = carms[0].body.n_frames, carms[0].hands.n_frames
+        ccons = _coarse_constraints(constraints, factor, nc, mc) if factor > 1.0 else list(constraints)
+        cfeat = _arm_features(carms, dead_zone, sign_ramp)
+        d1c, ceach = _arms_cost(carms, cfeat, theta)
+        u = uncovered_cost
+        arm_u: tuple = ()
+        if u is None:
+            u = uncovered_penalty(_arms_sample(carms, cfeat, theta), uncovered_quantile)
+            if len(carms) > 1 and level == len(rates) - 1:  # each arm's own, for its own path (arm_paths)
+                arm_u = tuple(uncovered_penalty(_arms_sample([a], [f], theta), uncovered_quantile)
+                              for a, f in zip(carms, cfeat))
+        if offset_s is not None:
+            cw = (coarse_width if coarse_width is not None else 30.0 * body.fps) / factor
+            cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
+        elif coarser is None:
+            cband = full_band(nc, mc, ccons)
+        else:
+            try:
+                cband = guided_band(coarser.path, cfps / rates[level - 1], nc, mc, LOCATE_BAND_S * cfps, ccons,
+                                    open_begin=True, open_end=True)
+            except BandError:  # the coarser path missed a pin's window: the whole matrix, if it fits
+                if nc * mc > max_coarse_cells:
+                    raise BandError(f"the located overlap misses a constraint window at {rates[level - 1]:.2g} fps "
+                                    f"and the whole {nc} x {mc} matrix at {cfps:.2g} fps is too large to search; "
+                                    "check the constraints") from None
+                cband = full_band(nc, mc, ccons)
+        # the bar: the locating pass its first half (its levels in equal shares), the full-rate pass the
+        # second (the hour-long pair's locating pass took 11 s, all of it at 0 % before)
+        first = None if progress is None else (lambda f, k=level: progress(0.5 * (k + f) / len(rates)))
+        coarser = coarse = _run(d1c, cband, first, open_begin=True, open_end=True, uncovered_cost=u,
+                                step_penalty=step_penalty, horizontal_weight=horizontal_weight)
     located = PassResult(coarse.path, coarse.cost, cband, "pass1 (locating)", d1c, coarse.covered, float(u), "open",
                          step_penalty, float(horizontal_weight), None, cfps, position_weight=float(position_weight),
                          arms=len(arms), arm_costs=ceach, arm_uncovered=arm_u)

@@ -527,6 +527,37 @@ def test_pass1_locating_levels_find_the_same_overlap(sample_markers, monkeypatch
         assert js.size and np.abs(js - c.y).max() <= c.tolerance
 
 
+def test_pass1_locating_levels_fall_back_to_one_level_when_a_band_misses_a_pin(sample_markers, monkeypatch):
+    """A finer locating level whose band cannot be built around the coarser path (it misses a
+    pin's window) gives way to one level over the whole matrix at the rate that fits, as before
+    the levels: the same path as that."""
+    import splicer.align.passes as P
+    from splicer.align.openend import coarse_rate
+    from splicer.errors import BandError
+    full, other = sample_markers
+    body = _cut(full, 140, 556)
+    rng = np.random.default_rng(1)
+    hands = _cat([_still(body, 0, 60, rng), body, _cut(other, 0, 60)])
+    small = 6_000
+    with monkeypatch.context() as mp:                                      # as before: one level
+        mp.setattr(P, "locate_rates", lambda n, m, fps, cf, mc: [coarse_rate(n, m, fps, cf, mc)])
+        before = P.pass1(body, hands, width=30.0, ends="open", max_coarse_cells=small)
+    assert before.located.fps < 10.0
+    real, calls = P.guided_band, []
+
+    def missing(path, factor, n, m, width, constraints=(), **kw):
+        if kw.get("open_begin") and n < body.n_frames:                    # a locating level's band
+            calls.append(n)
+            raise BandError("the coarse path misses a constraint window")
+        return real(path, factor, n, m, width, constraints, **kw)
+
+    monkeypatch.setattr(P, "guided_band", missing)
+    lv = P.pass1(body, hands, width=30.0, ends="open", max_coarse_cells=small)
+    assert calls and lv.located.fps == pytest.approx(before.located.fps)
+    np.testing.assert_array_equal(lv.located.path, before.located.path)
+    np.testing.assert_array_equal(lv.path, before.path)
+
+
 def test_pass1_hands_cover_the_middle_half(sample_markers):
     from splicer.align.passes import pass1, warp_markers
     full, _ = sample_markers

@@ -411,11 +411,12 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
     body, hands, position_weight = arms[0].body, arms[0].hands, arms[0].position_weight
     n, m = body.n_frames, hands.n_frames
     # long takes: the whole matrix at a low rate, then each finer rate around the coarser path
-    rates = [coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)] if offset_s is not None else \
-        locate_rates(n, m, body.fps, coarse_fps, max_coarse_cells)
+    single = [coarse_rate(n, m, body.fps, coarse_fps, max_coarse_cells)]
+    rates = single if offset_s is not None else locate_rates(n, m, body.fps, coarse_fps, max_coarse_cells)
     notes: tuple = ()
-    coarser = None  # the pass of the level before
-    for level, cfps in enumerate(rates):
+    coarser, level = None, 0  # the pass of the level before
+    while level < len(rates):
+        cfps = rates[level]
         factor = body.fps / cfps
         if factor > 1.0 + 1e-9:
             carms = _resampled(arms, cfps)
@@ -441,17 +442,15 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
             try:
                 cband = guided_band(coarser.path, cfps / rates[level - 1], nc, mc, LOCATE_BAND_S * cfps, ccons,
                                     open_begin=True, open_end=True)
-            except BandError:  # the coarser path missed a pin's window: the whole matrix, if it fits
-                if nc * mc > max_coarse_cells:
-                    raise BandError(f"the located overlap misses a constraint window at {rates[level - 1]:.2g} fps "
-                                    f"and the whole {nc} x {mc} matrix at {cfps:.2g} fps is too large to search; "
-                                    "check the constraints") from None
-                cband = full_band(nc, mc, ccons)
+            except BandError:  # the coarser path missed a pin's window: one level, the whole matrix, as before
+                rates, coarser, level = single, None, 0
+                continue
         # the bar: the locating pass its first half (its levels in equal shares), the full-rate pass the
         # second (the hour-long pair's locating pass took 11 s, all of it at 0 % before)
         first = None if progress is None else (lambda f, k=level: progress(0.5 * (k + f) / len(rates)))
         coarser = coarse = _run(d1c, cband, first, open_begin=True, open_end=True, uncovered_cost=u,
                                 step_penalty=step_penalty, horizontal_weight=horizontal_weight)
+        level += 1
     located = PassResult(coarse.path, coarse.cost, cband, "pass1 (locating)", d1c, coarse.covered, float(u), "open",
                          step_penalty, float(horizontal_weight), None, cfps, position_weight=float(position_weight),
                          arms=len(arms), arm_costs=ceach, arm_uncovered=arm_u)

@@ -18,7 +18,8 @@ from ..errors import BandError
 from .costs import PhaseFeatures, d1_cost
 
 __all__ = ["UNCOVERED_QUANTILE", "OPEN_HORIZONTAL_WEIGHT", "OPEN_COARSE_FPS", "MAX_COARSE_CELLS",
-           "LOCATE_FULL_CELLS", "LOCATE_STEP", "LOCATE_BAND_S", "uncovered_penalty", "coarse_rate", "locate_rates", "offset_band", "d1_sample", "EndClosure", "close_end"]
+           "LOCATE_FULL_CELLS", "LOCATE_STEP", "LOCATE_BAND_S", "uncovered_penalty", "coarse_rate", "locate_rates",
+           "offset_band", "d1_sample", "EndClosure", "close_end"]
 
 #: Default quantile of the local costs used as the per-row penalty of uncovered body frames.
 from ..defaults import UNCOVERED_QUANTILE  # noqa: E402  (one place of defaults)
@@ -38,10 +39,11 @@ OPEN_COARSE_FPS = 10.0
 MAX_COARSE_CELLS = 1 << 26
 
 #: Long takes (the whole matrix at :data:`OPEN_COARSE_FPS` over :data:`MAX_COARSE_CELLS`): the
-#: locating pass searches the whole matrix at the rate that fits this many cells, then each
-#: finer rate (:data:`LOCATE_STEP` times the last, up to :data:`OPEN_COARSE_FPS`) in a band of
-#: :data:`LOCATE_BAND_S` around the coarser path (:func:`locate_rates`): the 20-minute pair's
-#: locating pass searched 67 M cells per arm at 6.35 fps before (0.27.1).
+#: locating pass searches the whole matrix at the rate that fits ``LOCATE_FULL_CELLS`` cells,
+#: then finer rates about ``LOCATE_STEP`` times apart up to :data:`OPEN_COARSE_FPS`, each in a
+#: band of ``LOCATE_BAND_S`` seconds around the coarser path (:func:`locate_rates`; 0.27.1: the
+#: 20-minute pair's locating pass searched 67 M cells per arm at 6.35 fps before, 17 M at 3.18
+#: fps and a band at 10 fps now, with the same time maps).
 LOCATE_FULL_CELLS = 1 << 24
 LOCATE_STEP = 3.0
 LOCATE_BAND_S = 30.0
@@ -119,10 +121,10 @@ def locate_rates(n: int, m: int, fps: float, coarse_fps: float, max_cells: int =
 
     One level, :func:`coarse_rate`, when the whole matrix at ``min(fps, coarse_fps)`` has at most
     ``max_cells`` cells.  Else the first level is the rate at which the whole matrix has
-    ``full_cells`` cells (at most ``max_cells``) and the last ``min(fps, coarse_fps)``, with levels between them spaced
-    evenly in log rate, each about ``step`` times the last; every level but the first searches a
-    band around the path of the one before (:func:`splicer.align.paths.guided_band`,
-    :data:`LOCATE_BAND_S`).
+    ``full_cells`` cells (at most ``max_cells``) and the last ``min(fps, coarse_fps)``, with the
+    levels between them spaced evenly in log rate, each about ``step`` times the last; every level
+    but the first searches a band around the path of the one before
+    (:func:`splicer.align.paths.guided_band`, :data:`LOCATE_BAND_S`).
 
     Examples
     --------

@@ -36,6 +36,7 @@ import time
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
+from types import MappingProxyType
 
 # pair_folders, write_summary and the manifest names are re-exported: the batch API in one place
 from .batch_folders import pair_folders
@@ -44,7 +45,7 @@ from .errors import SplicerError
 from .manifest import ManifestError, PairJob, read_manifest
 
 __all__ = ["PairJob", "ManifestError", "read_manifest", "job_hash", "is_finished", "run_pair", "run_batch",
-           "pair_folders", "dask_client", "write_summary", "job_size", "largest_first", "main"]
+           "pair_folders", "dask_client", "LOCAL_CLUSTER_CONFIG", "write_summary", "job_size", "largest_first", "main"]
 
 
 # ---------------------------------------------------------------- resume
@@ -195,6 +196,24 @@ def largest_first(items: list, key=lambda j: j) -> list:
 
 # ---------------------------------------------------------------- Dask
 
+#: Dask settings of ``dask_client``'s own local cluster (not of a cluster given by address).
+#:
+#: * Dask starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536`` (memory back to the OS
+#:   sooner); that fixes glibc's mmap threshold too, so every large array of a splice is
+#:   mapped, faulted in and unmapped again: 12-15 % more CPU per pair (bench_batch.py).  Unset.
+#: * Dask's sampling profiler (the dashboard's profile page) takes the GIL from the pair's
+#:   thread every 10 ms; off, a warm batch of 8 pairs took 6-8 % less wall time (0.27.1).
+#: * Every server (scheduler, nannies, workers) checks its event loop every 20 ms and samples
+#:   its system monitor (psutil, for the dashboard) every 0.5 s: on two cores with two busy
+#:   workers that took 1.3 s of CPU from the pairs per 14-s batch (0.27.2,
+#:   ``benchmarks/bench_batch_overhead.py``).  At 1 s and 5 s a blocked event loop is still
+#:   reported (after 3 s) and the nanny's memory limit (its own 0.1-s check) still holds.
+LOCAL_CLUSTER_CONFIG = MappingProxyType({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                        "distributed.worker.profile.enabled": False,
+                        "distributed.admin.tick.interval": "1s",
+                        "distributed.admin.system-monitor.interval": "5s"})
+
+
 @contextmanager
 def dask_client(scheduler: str | None = None, workers: int | None = None, *, processes: bool = True):
     """A ``distributed.Client``: to ``scheduler`` (an address) or to a new local cluster.
@@ -203,7 +222,9 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
     and its HTTP server on a free port; it is shut down on exit, without the traceback a worker's
     last heartbeat may log while it closes (``splicer._dask_shutdown``).  Its workers keep glibc's
     default memory trimming (Dask's ``MALLOC_TRIM_THRESHOLD_=65536`` costs a splice 12-15 %
-    more CPU) and run without Dask's sampling profiler (6-8 % of a batch's wall time).
+    more CPU) and run without Dask's sampling profiler (6-8 % of a batch's wall time); every
+    server of the cluster checks its event loop once a second and samples its system monitor
+    every 5 s, not every 20 ms and 0.5 s (together 5 % of two cores' time during a batch).
     """
     try:
         from distributed import Client, LocalCluster
@@ -224,14 +245,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
     import dask
 
     n = workers or os.cpu_count() or 1
-    # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (memory back to the OS sooner);
-    # that fixes glibc's mmap threshold too, so every large array of a splice is mapped, faulted
-    # in and unmapped again: 12-15 % more CPU per pair (bench_batch.py).  Not for our workers.
-    # Nor Dask's sampling profiler (for the dashboard's profile page): every 10 ms it takes the
-    # GIL from the pair's thread to read its stack; off, a warm batch of 8 pairs took 6-8 % less
-    # wall time (0.27.1, benchmarks/HISTORY.md).
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
-                          "distributed.worker.profile.enabled": False}):
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
         # ":0": any free port (the scheduler serves HTTP even without the dashboard; the default
         # :8787 may be taken by another cluster on this machine)
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0",

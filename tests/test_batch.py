@@ -344,21 +344,37 @@ def test_local_cluster_workers_drop_only_the_closing_heartbeat_traceback():
 
 def test_local_cluster_workers_keep_malloc_trimming_and_run_no_profiler():
     """dask_client's own workers: glibc's default memory trimming (Dask's MALLOC_TRIM_THRESHOLD_
-    made a splice cost 12-15 % more CPU) and no sampling profiler (it takes the GIL from the
-    pair's thread every 10 ms: 6-8 % of a warm batch's wall time)."""
+    made a splice cost 12-15 % more CPU), no sampling profiler (it takes the GIL from the
+    pair's thread every 10 ms: 6-8 % of a warm batch's wall time), and the event loop's check
+    and system monitor at 1 s and 5 s on the workers, the nanny and the scheduler."""
     from splicer.batch import dask_client
 
     def check(dask_worker):
         import os
 
-        return (os.environ.get("MALLOC_TRIM_THRESHOLD_"), sorted(k for k in dask_worker.periodic_callbacks
-                                                                 if k.startswith("profile")))
+        pc = dask_worker.periodic_callbacks
+        return (os.environ.get("MALLOC_TRIM_THRESHOLD_"), sorted(k for k in pc if k.startswith("profile")),
+                pc["tick"].callback_time, pc["monitor"].callback_time)
+
+    def on_scheduler(dask_scheduler):
+        pc = dask_scheduler.periodic_callbacks
+        return pc["tick"].callback_time, pc["monitor"].callback_time
+
+    def nannies(cluster):
+        return [(n.periodic_callbacks["tick"].callback_time, n.periodic_callbacks["monitor"].callback_time)
+                for n in cluster.workers.values()]
 
     with dask_client(workers=1) as cl:
         on_workers = list(cl.run(check).values())
-    assert on_workers == [(None, [])]
-    # the check reads what it claims: a plain LocalCluster's worker has both
+        sched = cl.run_on_scheduler(on_scheduler)
+        nanny = nannies(cl.cluster)
+    assert on_workers == [(None, [], 1000.0, 5000.0)]
+    assert sched == (1000.0, 5000.0) and nanny == [(1000.0, 5000.0)]
+    # the check reads what it claims: a plain LocalCluster's worker has Dask's defaults
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=":0") as c, \
             distributed.Client(c) as cl:
         plain = list(cl.run(check).values())
-    assert plain == [("65536", ["profile", "profile-cycle"])]
+        sched = cl.run_on_scheduler(on_scheduler)
+        nanny = nannies(c)
+    assert plain == [("65536", ["profile", "profile-cycle"], 20.0, 500.0)]
+    assert sched == (20.0, 500.0) and nanny == [(20.0, 500.0)]

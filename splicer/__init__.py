@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.27.2"
+__version__ = "0.27.3"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)

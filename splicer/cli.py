@@ -148,19 +148,22 @@ class _Progress:
         self.enabled = enabled and stream.isatty()
         self.stage = None
         self.t0 = time.perf_counter()
+        self.longest = 0  # characters of the longest line written: a shorter one must cover it
 
     def __call__(self, stage: str, fraction: float) -> None:
         if not self.enabled:
             return
         width = 28
         filled = int(round(width * max(0.0, min(1.0, fraction))))
-        self.stream.write(f"\r{stage:<18} [{'#' * filled}{'.' * (width - filled)}] {100 * fraction:5.1f}%  "
-                          f"{time.perf_counter() - self.t0:6.1f}s")
+        line = (f"{stage:<18} [{'#' * filled}{'.' * (width - filled)}] {100 * fraction:5.1f}%  "
+                f"{time.perf_counter() - self.t0:6.1f}s")
+        self.stream.write("\r" + line.ljust(self.longest))
+        self.longest = max(self.longest, len(line))
         self.stream.flush()
 
     def close(self) -> None:
         if self.enabled:
-            self.stream.write("\r" + " " * 70 + "\r")
+            self.stream.write("\r" + " " * self.longest + "\r")
             self.stream.flush()
 
 

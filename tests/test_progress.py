@@ -71,3 +71,53 @@ def test_the_markers_move_the_bar_by_frames(stages, side):
 
 def test_stages_end_with_done(stages):
     assert stages[-1] == ("done", 1.0)
+
+
+def test_no_bar_goes_back(stages):
+    """A stage run again (pass 1 end to end after the open-ended pass, the pair aligned again
+    with other smoothing) has its own label, so every label's bar only moves forward."""
+    labels = {}
+    for s, f in stages:
+        labels.setdefault(s, []).append(f)
+    assert {s: f for s, f in labels.items() if f != sorted(f)} == {}
+    # the bundled sample runs both: its takes start and end together, and its hands disagree
+    # enough for the smoothing's second opinion (the summary says so too)
+    assert "both hands: pass 1, end to end" in labels and "both hands: check (ends)" in labels
+    assert "smoothed again: both hands: pass 1" in labels and "smoothed again: left: pass 2" in labels
+    names = [s for s, _ in stages]
+    assert names.index("both hands: pass 1") < names.index("both hands: pass 1, end to end") \
+        < names.index("smoothed again: both hands: pass 1")
+
+
+def test_an_aside_log_prefixes_its_progress_and_keeps_its_own_warnings():
+    from splicer.stages.log import Log
+
+    seen = []
+    log = Log(lambda stage, f: seen.append((stage, f)))
+    other = log.aside("tempo-matched")
+    other.progress("both hands: pass 1", 0.5)
+    other.note("only if kept")
+    log.progress("left: wrist", 1.0)
+    assert seen == [("tempo-matched: both hands: pass 1", 0.5), ("left: wrist", 1.0)]
+    assert other.warnings == ["only if kept"] and log.warnings == []
+    assert Log().aside("x")._progress is None  # no bar: nothing to prefix
+
+
+def test_the_command_line_bar_covers_a_longer_line_before_it():
+    import io
+
+    from splicer.cli import _Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    out = Terminal()
+    bar = _Progress(out, True)
+    bar("tempo-matched: both hands: expected", 0.5)
+    long_line = out.getvalue()[1:]
+    bar("left: wrist", 1.0)
+    short_line = out.getvalue()[1 + len(long_line) + 1:]
+    assert len(short_line) == len(long_line) and short_line.startswith("left: wrist") and short_line.endswith(" ")
+    bar.close()
+    assert out.getvalue().endswith("\r" + " " * len(long_line) + "\r")

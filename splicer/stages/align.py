@@ -299,7 +299,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
         log.note(f"{who}: the body holds still over frames {where}: the time map stays on one hands frame "
                  "there (the hands performer went on meanwhile, or held too)")
 
-    def run_pass1(mode: str, guide_path=None):
+    def run_pass1(mode: str, guide_path=None, stage: str = "pass 1"):
         open_ends = mode == "open"
         cons = tuple(markers.spaces.dtw_constraints(markers.pins, m, open_ends=open_ends))
         guided = opts.coarse == "on" or (opts.coarse == "auto" and n / fps > opts.coarse_above_s)
@@ -313,7 +313,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
                   coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
                   guide=None if open_ends else guide_path, others=arms, held_rows=held,
-                  progress=lambda f: log.progress(f"{label}: pass 1", f))
+                  progress=lambda f: log.progress(f"{label}: {stage}", f))
         return p, w1, w2, cons
 
     p1 = posterior = per_frame = evidence = None
@@ -330,7 +330,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                 why = _choose_ends(p1, n, m, fps, markers.pins)
                 together = p1.path
                 if why is None and others:  # an arm's own path corner to corner: the takes start and end together
-                    own_paths = arm_paths(p1, progress=check)
+                    own_paths = arm_paths(p1, progress=lambda f: log.progress(f"{label}: check (ends)", f))
                     arm, together, kept = _arm_together(p1, own_paths, sides, n, m, fps, opts.coarse_above_s)
                     for msg in kept:
                         log.note(f"{who}: {msg}")
@@ -351,7 +351,9 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                         p1.kept_cost.release()  # the open-ended pass is dropped: free its kept costs first
                     # takes that start and end together: the open-ended path (corner to corner) guides
                     # the band; an overlap too short to trust: the diagonal's band (the paper)
-                    p1, w1, w2, cons = run_pass1("fixed", together if why == _TOGETHER_WHY else guide)
+                    # its own bar: the open-ended pass's reached 100 %
+                    p1, w1, w2, cons = run_pass1("fixed", together if why == _TOGETHER_WHY else guide,
+                                                 stage="pass 1, end to end")
                     own_paths = None  # the dropped pass's paths do not describe this one
                     if why.startswith("!"):
                         log.note(f"{who}: {why[1:]}")
@@ -800,7 +802,7 @@ def align_pair(markers: dict, opts: SpliceOptions, log: Log | None = None, *, en
         return aligned
     if any(v != opts.smooth_s for v in smooth.values()):
         return aligned  # matched already: going back to the default smoothing by agreement was right 1 of 3 times
-    second = Log(log._progress)  # the other choice's own notes, kept only with its alignment
+    second = log.aside("smoothed again")  # the other choice's own notes, kept only with its alignment
     other = phase_smoothing(markers, replace(opts, noise_ratio=D.NOISE_RATIO), second)
     if other == smooth:
         return aligned

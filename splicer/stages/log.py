@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import time
 
-
-
 __all__ = ['Log']
 
 
@@ -26,6 +24,13 @@ class Log:
     def progress(self, stage: str, fraction: float) -> None:
         if self._progress is not None:
             self._progress(stage, fraction)
+
+    def aside(self, label: str) -> Log:
+        """A new log (its own warnings and timings) for an alternative the splice may keep
+        instead (a second opinion), whose progress reaches this log's bar as ``"label: stage"``:
+        a stage run again for it is told apart from its first run, and no bar goes back."""
+        outer = self._progress
+        return Log(None if outer is None else (lambda stage, fraction: outer(f"{label}: {stage}", fraction)))
 
     def tick(self, stage: str) -> None:
         """Charge the time since the last tick to ``stage``."""

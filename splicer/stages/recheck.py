@@ -128,11 +128,11 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
         return sides
     heavier = replace(opts, position_weight=D.POSITION_WEIGHT_RECHECK)
     candidates = []  # (label, maps, their own log)
-    second = Log(log._progress)  # each choice's own notes, kept only with its alignment
+    second = log.aside("positions weighed")  # each choice's own notes, kept only with its alignment
     candidates.append(("positions", finish(realign(heavier, second), second), second))
     log.tick("position second opinion")
     if D.TEMPO_MATCHED:
-        third = Log(log._progress)
+        third = log.aside("tempo-matched")
         candidates.append(("tempo", finish(realign(heavier, third, markers=tempo_markers(sides)), third), third))
         log.tick("tempo-matched second opinion")
     frames = _common_frames(sides, *(c[1] for c in candidates))

@@ -92,3 +92,26 @@ def test_round_list_matches_python_round():
     diff = np.abs(np.array(got) - np.array(want))
     assert (diff == 0).mean() > 0.999
     assert diff.max() <= 1e-4 * (1 + 1e-9)
+
+
+def test_the_summary_states_estimates_past_the_risk_model_as_over_its_top_rung():
+    """The worst low-confidence ranges in the summary: an estimate within the risk model's rungs
+    as a number, one past them (an extrapolation: a body hold once read "~54.25 s") as "over 0.4 s"."""
+    from types import SimpleNamespace
+
+    from splicer.stages.log import Log
+    from splicer.stages.report import _coverage_report
+
+    n = 40
+    est = np.full(n, 0.01)
+    est[5:10], est[20:30] = 0.25, 54.25
+    conf = SimpleNamespace(confidence=np.ones(n), est_error_s=est, disagreement_s=None)
+    side = SimpleNamespace(side="left", hands_frame=np.arange(n, dtype=float),
+                           alignment=SimpleNamespace(covered=None, ends="fixed", confidence=conf),
+                           markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0)))
+    log = Log()
+    out = _coverage_report(side, n, log)
+    assert out["low_confidence"] == [[5, 9], [20, 29]]
+    assert log.warnings == ["left side: low confidence in 38% of body frames; worst 20-29 (over 0.4 s), "
+                            "5-9 (~0.25 s); a pin (constraints file) near frame 24 would help most"]
+    assert out["est_error_s"][20] == 54.25  # the report keeps the number

@@ -16,7 +16,7 @@ from .log import Log
 from .load import Inputs
 from .align import Alignment
 
-__all__ = ['SideResult', 'SpliceResult', 'LOW_CONFIDENCE_S', 'build_report']
+__all__ = ['SideResult', 'SpliceResult', 'LOW_CONFIDENCE_S', 'build_report', 'estimate_text']
 
 
 # ---------------------------------------------------------------- stage 7: report
@@ -86,6 +86,23 @@ class SpliceResult:
 LOW_CONFIDENCE_S = 0.1
 
 
+def estimate_text(error_s: float) -> str:
+    """An estimated error as the summary states it: ``"~0.25 s"``, or ``"over 0.4 s"`` past the
+    risk model's largest error (its top rung, :data:`splicer.align.risk_model.MODEL`): the model
+    gives the probability of exceeding 0.4 s, and any number beyond it is the fit's
+    extrapolation (a body hold spliced 1.5 s off once read "~54.25 s").
+
+    Examples
+    --------
+    >>> estimate_text(0.2549), estimate_text(0.4), estimate_text(54.25)
+    ('~0.25 s', '~0.40 s', 'over 0.4 s')
+    """
+    from ..align.risk_model import MODEL
+
+    top = float(MODEL.thresholds_s[-1])
+    return f"~{error_s:.2f} s" if error_s <= top else f"over {top:g} s"
+
+
 def _worst_ranges(ranges: list, values: np.ndarray, k: int = 3) -> list:
     """The ``k`` ``[first, last]`` ranges whose largest value (NaN ignored) is largest, largest first."""
     return sorted(ranges, key=lambda ab: -float(np.nanmax(values[ab[0]:ab[1] + 1])))[:k]
@@ -121,7 +138,8 @@ def _coverage_report(r: SideResult, n: int, log: Log) -> dict:
             out["disagree"] = frame_ranges(np.nan_to_num(conf.disagreement_s, nan=0.0) > LOW_CONFIDENCE_S, min_gap=2)
         if low:
             worst = _worst_ranges(low, conf.est_error_s)
-            where = ", ".join(f"{a}-{b} (~{np.nanmax(conf.est_error_s[a:b + 1]):.2f} s)" for a, b in worst)
+            where = ", ".join(f"{a}-{b} ({estimate_text(float(np.nanmax(conf.est_error_s[a:b + 1])))})"
+                              for a, b in worst)
             share = sum(b - a + 1 for a, b in low) / n
             log.note(f"{r.side} side: low confidence in {100 * share:.0f}% of body frames; worst {where}; a pin "
                      f"(constraints file) near frame {(worst[0][0] + worst[0][1]) // 2} would help most")

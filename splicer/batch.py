@@ -208,10 +208,12 @@ def largest_first(items: list, key=lambda j: j) -> list:
 #:   workers that took 1.3 s of CPU from the pairs per 14-s batch (0.27.2,
 #:   ``benchmarks/bench_batch_overhead.py``).  At 1 s and 5 s a blocked event loop is still
 #:   reported (after 3 s) and the nanny's memory limit (its own 0.1-s check) still holds.
-LOCAL_CLUSTER_CONFIG = MappingProxyType({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
-                        "distributed.worker.profile.enabled": False,
-                        "distributed.admin.tick.interval": "1s",
-                        "distributed.admin.system-monitor.interval": "5s"})
+LOCAL_CLUSTER_CONFIG = MappingProxyType({
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+})
 
 
 @contextmanager
@@ -220,11 +222,9 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
 
     The local cluster has ``workers`` single-threaded worker processes (all cores by default)
     and its HTTP server on a free port; it is shut down on exit, without the traceback a worker's
-    last heartbeat may log while it closes (``splicer._dask_shutdown``).  Its workers keep glibc's
-    default memory trimming (Dask's ``MALLOC_TRIM_THRESHOLD_=65536`` costs a splice 12-15 %
-    more CPU) and run without Dask's sampling profiler (6-8 % of a batch's wall time); every
-    server of the cluster checks its event loop once a second and samples its system monitor
-    every 5 s, not every 20 ms and 0.5 s (together 5 % of two cores' time during a batch).
+    last heartbeat may log while it closes (``splicer._dask_shutdown``).  It runs with
+    :data:`LOCAL_CLUSTER_CONFIG` (glibc's default memory trimming, no sampling profiler, a
+    quieter event loop and system monitor; why and how much each saves: there).
     """
     try:
         from distributed import Client, LocalCluster

@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.27.3"
+__version__ = "0.28.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)

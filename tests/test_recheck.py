@@ -45,7 +45,10 @@ def _pair(**kw):
 def stand_ins(monkeypatch):
     """``realign`` and ``finish`` that record their calls and return a second pair (shifted by
     one hands frame; the tempo-matched one by two); ``map_mismatch`` read from a table keyed by
-    which pair it is given (``"first"``, ``"second"``, ``"tempo"``); ``tempo_markers`` a stand-in."""
+    which pair it is given (``"first"``, ``"second"``, ``"tempo"``); ``tempo_markers`` a stand-in.
+    The frame-by-frame combination is off: these read which pair is kept (the combination's
+    tests below switch it on)."""
+    monkeypatch.setattr(D, "SECOND_OPINION_BLEND_S", 0.0)
     calls, mismatch = [], {}
     second, tempo = _pair(shift=1.0), _pair(shift=2.0)
     blurred = {"left": "blurred", "right": "blurred"}
@@ -160,3 +163,65 @@ def test_map_mismatch_reads_the_frames_both_cover():
     both = R.map_mismatch({"left": side, "right": late}, frames)
     want = rate_mismatch(body[frames], body, t[frames] + 2.0, fps=30.0, smooth_s=D.WRIST_SMOOTH_S)
     assert both == pytest.approx((right + want) / 2) and want > 10 * right
+
+
+def _blend_side(body, hf):
+    return SimpleNamespace(markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0),
+                                                   body=SimpleNamespace(points=body), hands=SimpleNamespace(points=body)),
+                           hands_frame=hf, alignment="its own")
+
+
+def test_blend_maps_takes_each_stretch_from_the_map_right_there():
+    """Three maps of one swinging hand (the hands take at twice the rate, the truth 2 t): one right
+    up to frame 90 and 3 body frames late from 110, one late up to 90 and right from 110, one late
+    throughout.  The combination is right in both stretches; outside the frames every map covers it
+    is the first pair's, NaN included."""
+    n = 200
+    t = np.arange(n, dtype=float)
+    a = 0.6 * np.sin(t / 5.0) + 0.3 * np.sin(t / 13.0)
+    body = np.zeros((n, 4, 3))
+    body[:, 0], body[:, 1], body[:, 2] = [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-10.0, 0.0, 0.0]
+    body[:, 3] = np.stack([np.cos(a), np.zeros(n), np.sin(a)], axis=1) * 3.0
+    ramp = np.clip((t - 90.0) / 20.0, 0.0, 1.0)
+    early = 2.0 * t + 6.0 * ramp  # right, then late
+    late_then_right = 2.0 * t + 6.0 * (1.0 - ramp)
+    late = 2.0 * t + 6.0
+    first = np.where(t < 5, np.nan, early)
+    pairs = [{"left": _blend_side(body, hf)} for hf in (first, late_then_right, late)]
+    frames = np.arange(5, 195)
+    out = R.blend_maps(pairs, "left", frames, window_s=1.0, tau=0.1)
+    assert np.isnan(out[:5]).all() and out[195:] == pytest.approx(early[195:])
+    assert np.all(np.diff(out[5:]) >= 0)
+    err = np.abs(out - 2.0 * t)
+    assert err[20:75].max() < 0.5 and err[125:180].max() < 0.5  # hands frames (each map alone: 6 off in one)
+    assert err[90:110].max() < 6.0  # where the maps cross: between them
+    # a larger tau leans less on the better map: the late ones pull
+    soft = R.blend_maps(pairs, "left", frames, window_s=1.0, tau=100.0)
+    assert np.abs(soft - 2.0 * t)[20:75].min() > 3.0
+    with pytest.raises(ValueError, match="tau"):
+        R.blend_maps(pairs, "left", frames, window_s=1.0, tau=0.0)
+
+
+def test_the_pair_kept_is_combined_with_the_others(stand_ins, monkeypatch):
+    """With the combination on (the default), the kept pair keeps its other fields and a note says
+    so.  The stand-ins' hand swings round a circle at one speed, which looks the same at any shift:
+    the three maps (0, 1 and 2 hands frames late) weigh alike, so the combination is their mean,
+    1 frame late (away from the ends, where the late maps reach past the hands take).  The median
+    merge is left alone: its fingers come from the path."""
+    monkeypatch.setattr(D, "SECOND_OPINION_BLEND_S", 1.0)
+    monkeypatch.setattr(R, "replace", lambda obj, **kw: SimpleNamespace(**{**vars(obj), **kw}))  # stand-in sides
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.4, "tempo": 0.5})
+    first = _pair()
+    log = Log()
+    out = R.position_second_opinion(first, SpliceOptions(), log, realign=stand_ins.realign, finish=stand_ins.finish,
+                                    since=0)
+    truth = 2.0 * np.arange(N)
+    for s in ("left", "right"):
+        assert out[s].alignment is stand_ins.second[s].alignment  # the kept pair's
+        off = out[s].hands_frame - truth
+        assert off[17:42] == pytest.approx(np.ones(25), abs=1e-3)  # within 15 frames of an end, the shifted maps clip
+    assert "kept as the frame-by-frame combination's base" in log.warnings[-2]
+    assert "3 alignments' time maps are combined frame by frame over body frames 0-59" in log.warnings[-1]
+    median = R.position_second_opinion(first, SpliceOptions(merge="median"), Log(), realign=stand_ins.realign,
+                                       finish=stand_ins.finish, since=0)
+    assert median is stand_ins.second

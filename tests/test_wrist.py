@@ -170,6 +170,67 @@ def test_refine_map_leaves_a_right_map_alone():
 
 # ---------------------------------------------------------------- the stage, on the bundled sample
 
+def _slow_local_rate_mismatch(body, hands, c, fps, smooth_s, window_s):
+    """The reference: every window's own Kabsch (turn_onto) and sums, one frame at a time."""
+    from splicer.align.wrist import _direction, turn_onto
+    from splicer.transfer.sampling import sample_linear
+
+    xb = _direction(body, smooth_s, fps)
+    xh = sample_linear(_direction(hands, smooth_s, fps), c)
+    vb, vh = np.gradient(xb, axis=0), np.gradient(xh, axis=0)
+    half = max(1, int(round(window_s * fps / 2.0)))
+    out = np.full(len(c), np.nan)
+    for t in range(len(c)):
+        sl = slice(max(t - half, 0), min(t + half + 1, len(c)))
+        r = turn_onto(xh[sl], xb[sl])
+        e = np.sum(vb[sl] ** 2)
+        if e > 0:
+            out[t] = np.sum((vb[sl] - vh[sl] @ r.T) ** 2) / e
+    return out
+
+
+def test_local_rate_mismatch_against_the_slow_reference():
+    from splicer.align.wrist import local_rate_mismatch
+
+    fps = 30.0
+    rng = np.random.default_rng(3)
+    hands = _arm(np.arange(300, dtype=float)) + rng.normal(0.0, 0.02, (300, 4, 3))
+    c = 20.0 + np.cumsum(rng.uniform(0.5, 1.5, 200))  # a wandering map
+    body = _arm(c + rng.normal(0.0, 1.0, 200))
+    for window_s in (0.1, 1.0, 3.0, 20.0):
+        fast = local_rate_mismatch(body, hands, c, fps=fps, smooth_s=0.05, window_s=window_s)
+        np.testing.assert_allclose(fast, _slow_local_rate_mismatch(body, hands, c, 30.0, 0.05, window_s), rtol=1e-9,
+                                   atol=1e-12)
+
+
+def test_local_rate_mismatch_worked():
+    """Right along the first half, three frames late along the second: the windows say where."""
+    from splicer.align.wrist import local_rate_mismatch
+
+    fps = 30.0
+    hands = _arm(np.arange(400, dtype=float))
+    truth = 50.0 + np.arange(250)
+    body = _arm(truth)
+    c = truth + np.where(np.arange(250) < 125, 0.0, 3.0)
+    m = local_rate_mismatch(body, hands, c, fps=fps, smooth_s=0.05, window_s=1.0)
+    assert m.shape == (250,)
+    assert np.all(m[20:105] < 0.01) and np.all(m[145:240] > 0.3)  # a window: 15 frames each side of a frame
+    # the whole map in one window: rate_mismatch's figure (up to the smoothing at the window's ends)
+    whole = local_rate_mismatch(body, hands, truth, fps=fps, smooth_s=0.05, window_s=1000.0)
+    assert np.allclose(whole, whole[0]) and whole[0] == pytest.approx(rate_mismatch(body, hands, truth, fps=fps,
+                                                                                     smooth_s=0.05), abs=1e-3)
+    # a hand still in its forearm: NaN; bad arguments: errors
+    still = np.repeat(body[:1], 250, axis=0)
+    assert np.isnan(local_rate_mismatch(still, hands, truth, fps=fps, smooth_s=0.05, window_s=1.0)).all()
+    with pytest.raises(ValueError, match="finite"):
+        local_rate_mismatch(body, hands, np.where(np.arange(250) == 7, np.nan, truth), fps=fps, smooth_s=0.05,
+                            window_s=1.0)
+    with pytest.raises(ValueError, match="positive"):
+        local_rate_mismatch(body, hands, truth, fps=fps, smooth_s=0.05, window_s=0.0)
+    with pytest.raises(ValueError, match="one map frame per body frame"):
+        local_rate_mismatch(body, hands, truth[:-1], fps=fps, smooth_s=0.05, window_s=1.0)
+
+
 from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 

@@ -38,7 +38,7 @@ from ..model.rotations import cross3
 from ..transfer.sampling import sample_linear
 
 __all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "STYLOID", "STILL_WRIST", "comparable_placements", "markers_compare", "wrist_moves", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
-           "WristFit", "WristEvidence", "refine_map", "rate_mismatch", "noise_share"]
+           "WristFit", "WristEvidence", "refine_map", "rate_mismatch", "local_rate_mismatch", "noise_share"]
 
 #: Offsets are searched on a grid of this many common (body) frames.
 STEP_FRAMES = 0.25
@@ -458,6 +458,64 @@ def rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarr
     if not energy > 0:
         return float("nan")
     return float(np.mean(np.sum((vb - vh) ** 2, axis=1)) / energy)
+
+
+def _window_sums(x: np.ndarray, half: int) -> np.ndarray:
+    """Sums of ``x`` (n, ...) over the rows ``[t - half, t + half]`` (clipped to the rows), every ``t`` at once."""
+    n = len(x)
+    cs = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)])
+    t = np.arange(n)
+    return cs[np.minimum(t + half + 1, n)] - cs[np.maximum(t - half, 0)]
+
+
+def local_rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float,
+                        smooth_s: float, window_s: float) -> np.ndarray:
+    """:func:`rate_mismatch` over the window of ``window_s`` seconds centred on each frame of the map.
+
+    The directions and their rates of change are made once along the whole map (as
+    :func:`rate_mismatch` makes them along its frames); each window then fits its own rotation
+    of the hands' directions onto the body's (:func:`turn_onto`) and compares the rates turned
+    by it.  Running sums make every window at once: O(n) for a map of n frames.
+
+    Parameters
+    ----------
+    body_points, hands_points, c, fps, smooth_s
+        As :func:`rate_mismatch` (``c`` finite).
+    window_s : float
+        The window, seconds (> 0); clipped at the map's ends.
+
+    Returns
+    -------
+    np.ndarray [shape=(n,)]
+        0 where the hand moves alike in both takes along the map; about 2 for unrelated motion;
+        NaN where the body's hand does not move in the window.
+    """
+    c = np.asarray(c, dtype=np.float64)
+    if not window_s > 0:
+        raise ValueError(f"window_s must be positive, got {window_s!r}")
+    if c.ndim != 1 or len(c) != len(body_points):
+        raise ValueError(f"need one map frame per body frame, got {c.shape} for {len(body_points)} body frames")
+    if not np.isfinite(c).all():
+        raise ValueError("the map must be finite")
+    n = len(c)
+    if n < 3 or len(hands_points) < 2:
+        return np.full(n, np.nan)
+    xb = _direction(body_points, smooth_s, fps)
+    xh = sample_linear(_direction(hands_points, smooth_s, fps), c)
+    vb, vh = np.gradient(xb, axis=0), np.gradient(xh, axis=0)
+    half = max(1, int(round(window_s * fps / 2.0)))
+    u, _, vt = np.linalg.svd(_window_sums(xh[:, :, None] * xb[:, None, :], half))  # Kabsch per window
+    v, ut = np.swapaxes(vt, 1, 2), np.swapaxes(u, 1, 2)
+    d = np.sign(np.linalg.det(v @ ut))
+    d[d == 0] = 1.0
+    rot = (v * np.stack([np.ones(n), np.ones(n), d], axis=1)[:, None, :]) @ ut  # V diag(1, 1, d) U^T
+    cross = np.einsum("tij,tji->t", rot, _window_sums(vh[:, :, None] * vb[:, None, :], half))  # sum vb . R vh
+    energy = _window_sums(np.sum(vb ** 2, axis=1), half)
+    other = _window_sums(np.sum(vh ** 2, axis=1), half)
+    out = np.full(n, np.nan)
+    ok = energy > 0
+    out[ok] = (energy[ok] + other[ok] - 2.0 * cross[ok]) / energy[ok]
+    return out
 
 
 def noise_share(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float, smooth_s: float,

@@ -11,8 +11,11 @@ with each take's phase markers smoothed to the tempo the first maps show (:func:
 performance), their time maps made as the first's were (smoothed, refined by the wrist), and the
 pair of maps along which the hand moves relative to the forearm most alike in both takes
 (:func:`splicer.align.wrist.rate_mismatch`: a signal pass 1 does not read, which the arm's noise
-leaves clean) is kept, with a note.  Measured on the ground-truth protocol (benchmarks/HISTORY.md,
-0.18.0 and 0.27.0).
+leaves clean) is kept, with a note.  Since 0.28.0 the kept pair's time maps are then combined frame
+by frame from all three (:func:`blend_maps`): each map weighed by that mismatch over the second
+around the frame (:func:`splicer.align.wrist.local_rate_mismatch`), as the alignment best along
+one stretch is not always the best along the next.  Measured on the ground-truth protocol
+(benchmarks/HISTORY.md, 0.18.0, 0.27.0 and 0.28.0).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from .. import defaults as D
 from ..options import SpliceOptions
 from .log import Log
 
-__all__ = ["wants_second_opinion", "map_mismatch", "tempo_markers", "position_second_opinion"]
+__all__ = ["wants_second_opinion", "map_mismatch", "tempo_markers", "position_second_opinion", "blend_maps"]
 
 
 def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
@@ -142,15 +145,70 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     scored = [(map_mismatch(maps, frames), label, maps, lg) for label, maps, lg in candidates]
     best = min(scored, key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
     again, label, maps, lg = best
-    if not again < first:
-        return sides
-    del log.warnings[since:]
-    log.warnings.extend(lg.warnings)
-    how = "" if label == "positions" else (
-        ", its markers smoothed further where one take ran faster than the other (so that both are blurred over the "
-        "same span of the performance)")
-    log.note(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions weighed "
-             f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{how}; along that alignment the hand "
-             f"moves relative to the forearm more alike in both takes (mismatch {again:.3f} against {first:.3f}), "
-             f"and it is kept")
-    return maps
+    blend = opts.merge == "timemap" and D.SECOND_OPINION_BLEND_S > 0
+    if again < first:
+        del log.warnings[since:]
+        log.warnings.extend(lg.warnings)
+        how = "" if label == "positions" else (
+            ", its markers smoothed further where one take ran faster than the other (so that both are blurred over the "
+            "same span of the performance)")
+        log.note(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions weighed "
+                 f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{how}; along that alignment the "
+                 f"hand moves relative to the forearm more alike in both takes (mismatch {again:.3f} against "
+                 f"{first:.3f}), and it is kept" + (" as the frame-by-frame combination's base" if blend else ""))
+    kept = maps if again < first else sides
+    if not blend:
+        return kept
+    pairs = [kept] + [p for p in [sides] + [c[1] for c in candidates] if p is not kept]
+    combined = {s: replace(r, hands_frame=blend_maps(pairs, s, frames)) for s, r in kept.items()}
+    log.note(f"the {len(pairs)} alignments' time maps are combined frame by frame over body frames {frames[0]}-"
+             f"{frames[-1]}, each weighed by how alike the hand moves relative to the forearm along it over the "
+             f"{D.SECOND_OPINION_BLEND_S:g} s around the frame")
+    return combined
+
+
+def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | None = None,
+               tau: float | None = None) -> np.ndarray:
+    """One side's time map combined frame by frame from several alignments' maps.
+
+    Over ``frames`` (a run every alignment covers), each map weighed by
+    ``exp(-(mismatch - least) / tau)``, its :func:`splicer.align.wrist.local_rate_mismatch` over
+    ``window_s`` against the least of them at that frame (a frame where the hand does not move
+    in the window weighs them alike); outside ``frames``, the first pair's map.  A weighted mean of
+    non-decreasing maps is non-decreasing, and stays within the pins' tolerance every map
+    holds; it is made non-decreasing over the whole covered span again where it meets the
+    first pair's map at the run's edges.
+
+    Parameters
+    ----------
+    pairs : list of dict of str -> SideResult
+        The alignments, the one whose other fields are kept first (its map outside ``frames``).
+    side : str
+    frames : np.ndarray
+        Contiguous body frames every map covers (:func:`_common_frames`).
+    window_s, tau : float, optional
+        Default :data:`~splicer.defaults.SECOND_OPINION_BLEND_S`, :data:`~splicer.defaults.SECOND_OPINION_TAU`.
+
+    Returns
+    -------
+    np.ndarray [shape=(n_body,)]
+        Hands-file frames; NaN where the first pair's map is.
+    """
+    from ..align.wrist import local_rate_mismatch
+
+    window_s = D.SECOND_OPINION_BLEND_S if window_s is None else window_s
+    tau = D.SECOND_OPINION_TAU if tau is None else tau
+    if not tau > 0:
+        raise ValueError(f"tau must be positive, got {tau!r}")
+    base = pairs[0][side]
+    mk, sp = base.markers, base.markers.spaces
+    maps = np.stack([np.asarray(p[side].hands_frame, dtype=np.float64)[frames] for p in pairs])
+    mis = np.stack([local_rate_mismatch(mk.body.points[frames], mk.hands.points, sp.hands_to_common(h),
+                                        fps=sp.body_fps, smooth_s=D.WRIST_SMOOTH_S, window_s=window_s) for h in maps])
+    mis = np.where(np.isfinite(mis).all(axis=0), mis, 0.0)  # a still hand: no preference
+    w = np.exp(-(mis - mis.min(axis=0)) / tau)
+    out = np.array(base.hands_frame, dtype=np.float64)
+    out[frames] = (w * maps).sum(axis=0) / w.sum(axis=0)
+    ok = np.isfinite(out)
+    out[ok] = np.maximum.accumulate(out[ok])
+    return out

@@ -88,13 +88,17 @@ TEMPO_MATCHED = True
 #: The second opinion's maps combined frame by frame (0.28.0; 0 keeps one candidate whole): each
 #: candidate's map weighed by ``exp(-mismatch / SECOND_OPINION_TAU)``, its hand-in-forearm
 #: mismatch (:func:`splicer.align.wrist.local_rate_mismatch`) over the window of this many
-#: seconds centred on the frame.  Tuning seeds 0-14, *all*: synthetic 0.054 (0.302) -> 0.048
-#: (0.262) s, ZEGGS 0.033 (0.150) -> 0.030 (0.119); the imitation and its combinations within
-#: 0.001 s (benchmarks/HISTORY.md, 0.28.0).
+#: seconds centred on the frame.  Tuning seeds 0-14, *all*: synthetic 0.054 (0.302) -> 0.051
+#: (0.275) s, ZEGGS 0.033 (0.150) -> 0.032 (0.144); the imitation and its combinations within
+#: 0.0002 s; held out, synthetic *all* 0.046 (0.197) -> 0.039 (0.155) s (benchmarks/HISTORY.md, 0.28.0).
 SECOND_OPINION_BLEND_S = 1.0
 #: ... and the mismatch difference that weighs a candidate e times less (0 alike, about 2 for
 #: unrelated motion).
 SECOND_OPINION_TAU = 0.1
+#: ... and where the body's hand moves in its forearm under this share of the median window's
+#: motion, the kept pair's map alone (the mismatch is a ratio to that motion: near a rest it read
+#: 5-7 for every candidate, and the combination took a start 0.1 -> 0.4 s off; test_close_ends).
+SECOND_OPINION_MIN_MOTION = 0.25
 #: The tempo's slope smoothing (a Gaussian's standard deviation, seconds) and its limits
 #: (hands seconds per body second): as the prototype measured in benchmarks/HISTORY.md, 0.26.1.
 TEMPO_SLOPE_S = 0.5

@@ -175,7 +175,7 @@ def test_blend_maps_takes_each_stretch_from_the_map_right_there():
     """Three maps of one swinging hand (the hands take at twice the rate, the truth 2 t): one right
     up to frame 90 and 3 body frames late from 110, one late up to 90 and right from 110, one late
     throughout.  The combination is right in both stretches; outside the frames every map covers it
-    is the first pair's, NaN included."""
+    is the first pair's, NaN included; so it is where the body's hand rests."""
     n = 200
     t = np.arange(n, dtype=float)
     a = 0.6 * np.sin(t / 5.0) + 0.3 * np.sin(t / 13.0)
@@ -195,6 +195,13 @@ def test_blend_maps_takes_each_stretch_from_the_map_right_there():
     err = np.abs(out - 2.0 * t)
     assert err[20:75].max() < 0.5 and err[125:180].max() < 0.5  # hands frames (each map alone: 6 off in one)
     assert err[90:110].max() < 6.0  # where the maps cross: between them
+    # where the body's hand rests (frames 130-174; the windows of 15 frames each side wholly in it),
+    # the mismatch is not read: the first map alone, late as it is there
+    rest = body.copy()
+    rest[130:175, 3] = body[130, 3]
+    held = R.blend_maps([{"left": _blend_side(rest, p["left"].hands_frame)} for p in pairs], "left", frames,
+                        window_s=1.0, tau=0.1)
+    assert held[140:158] == pytest.approx(early[140:158]) and np.abs(held - 2.0 * t)[20:75].max() < 0.5
     # a larger tau leans less on the better map: the late ones pull
     soft = R.blend_maps(pairs, "left", frames, window_s=1.0, tau=100.0)
     assert np.abs(soft - 2.0 * t)[20:75].min() > 3.0

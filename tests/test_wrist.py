@@ -219,6 +219,13 @@ def test_local_rate_mismatch_worked():
     whole = local_rate_mismatch(body, hands, truth, fps=fps, smooth_s=0.05, window_s=1000.0)
     assert np.allclose(whole, whole[0]) and whole[0] == pytest.approx(rate_mismatch(body, hands, truth, fps=fps,
                                                                                      smooth_s=0.05), abs=1e-3)
+    # windows the body's hand moves in less than min_motion of the median window's motion: NaN
+    assert np.isfinite(m).all()
+    half = local_rate_mismatch(body, hands, c, fps=fps, smooth_s=0.05, window_s=1.0, min_motion=1.0)
+    assert 0.3 < np.isnan(half).mean() < 0.7 and np.array_equal(half[~np.isnan(half)], m[~np.isnan(half)])
+    assert np.isnan(local_rate_mismatch(body, hands, c, fps=fps, smooth_s=0.05, window_s=1.0, min_motion=10.0)).all()
+    with pytest.raises(ValueError, match="min_motion"):
+        local_rate_mismatch(body, hands, c, fps=fps, smooth_s=0.05, window_s=1.0, min_motion=-1.0)
     # a hand still in its forearm: NaN; bad arguments: errors
     still = np.repeat(body[:1], 250, axis=0)
     assert np.isnan(local_rate_mismatch(still, hands, truth, fps=fps, smooth_s=0.05, window_s=1.0)).all()

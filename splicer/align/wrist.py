@@ -469,7 +469,7 @@ def _window_sums(x: np.ndarray, half: int) -> np.ndarray:
 
 
 def local_rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float,
-                        smooth_s: float, window_s: float) -> np.ndarray:
+                        smooth_s: float, window_s: float, min_motion: float = 0.0) -> np.ndarray:
     """:func:`rate_mismatch` over the window of ``window_s`` seconds centred on each frame of the map.
 
     The directions and their rates of change are made once along the whole map (as
@@ -483,16 +483,22 @@ def local_rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np
         As :func:`rate_mismatch` (``c`` finite).
     window_s : float
         The window, seconds (> 0); clipped at the map's ends.
+    min_motion : float
+        A window whose body hand moves in its forearm less than this share of the median
+        window's motion (summed squared rates) gets NaN: the ratio's denominator is then too
+        small to read (0: only a hand that does not move at all).
 
     Returns
     -------
     np.ndarray [shape=(n,)]
         0 where the hand moves alike in both takes along the map; about 2 for unrelated motion;
-        NaN where the body's hand does not move in the window.
+        NaN where the body's hand moves too little in the window.
     """
     c = np.asarray(c, dtype=np.float64)
     if not window_s > 0:
         raise ValueError(f"window_s must be positive, got {window_s!r}")
+    if not min_motion >= 0:
+        raise ValueError(f"min_motion must be >= 0, got {min_motion!r}")
     if c.ndim != 1 or len(c) != len(body_points):
         raise ValueError(f"need one map frame per body frame, got {c.shape} for {len(body_points)} body frames")
     if not np.isfinite(c).all():
@@ -513,7 +519,7 @@ def local_rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np
     energy = _window_sums(np.sum(vb ** 2, axis=1), half)
     other = _window_sums(np.sum(vh ** 2, axis=1), half)
     out = np.full(n, np.nan)
-    ok = energy > 0
+    ok = energy > max(0.0, min_motion * float(np.median(energy)))
     out[ok] = (energy[ok] + other[ok] - 2.0 * cross[ok]) / energy[ok]
     return out
 

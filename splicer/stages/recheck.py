@@ -173,8 +173,10 @@ def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | 
 
     Over ``frames`` (a run every alignment covers), each map weighed by
     ``exp(-(mismatch - least) / tau)``, its :func:`splicer.align.wrist.local_rate_mismatch` over
-    ``window_s`` against the least of them at that frame (a frame where the hand does not move
-    in the window weighs them alike); outside ``frames``, the first pair's map.  A weighted mean of
+    ``window_s`` against the least of them at that frame; where the body's hand moves in its
+    forearm under :data:`~splicer.defaults.SECOND_OPINION_MIN_MOTION` of the median window's motion
+    (the ratio is then too small a number over another to read: a rest, a hold), and outside
+    ``frames``, the first pair's map alone.  A weighted mean of
     non-decreasing maps is non-decreasing, and stays within the pins' tolerance every map
     holds; it is made non-decreasing over the whole covered span again where it meets the
     first pair's map at the run's edges.
@@ -204,8 +206,11 @@ def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | 
     mk, sp = base.markers, base.markers.spaces
     maps = np.stack([np.asarray(p[side].hands_frame, dtype=np.float64)[frames] for p in pairs])
     mis = np.stack([local_rate_mismatch(mk.body.points[frames], mk.hands.points, sp.hands_to_common(h),
-                                        fps=sp.body_fps, smooth_s=D.WRIST_SMOOTH_S, window_s=window_s) for h in maps])
-    mis = np.where(np.isfinite(mis).all(axis=0), mis, 0.0)  # a still hand: no preference
+                                        fps=sp.body_fps, smooth_s=D.WRIST_SMOOTH_S, window_s=window_s,
+                                        min_motion=D.SECOND_OPINION_MIN_MOTION) for h in maps])
+    unread = ~np.isfinite(mis).all(axis=0)  # the body's hand hardly moves in the window: the first map alone
+    mis[:, unread] = np.inf
+    mis[0, unread] = 0.0
     w = np.exp(-(mis - mis.min(axis=0)) / tau)
     out = np.array(base.hands_frame, dtype=np.float64)
     out[frames] = (w * maps).sum(axis=0) / w.sum(axis=0)

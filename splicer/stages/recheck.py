@@ -173,13 +173,13 @@ def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | 
 
     Over ``frames`` (a run every alignment covers), each map weighed by
     ``exp(-(mismatch - least) / tau)``, its :func:`splicer.align.wrist.local_rate_mismatch` over
-    ``window_s`` against the least of them at that frame; where the body's hand moves in its
+    ``window_s`` against the least of them at that frame.  Where the body's hand moves in its
     forearm under :data:`~splicer.defaults.SECOND_OPINION_MIN_MOTION` of the median window's motion
-    (the ratio is then too small a number over another to read: a rest, a hold), and outside
-    ``frames``, the first pair's map alone.  A weighted mean of
-    non-decreasing maps is non-decreasing, and stays within the pins' tolerance every map
-    holds; it is made non-decreasing over the whole covered span again where it meets the
-    first pair's map at the run's edges.
+    (a rest, a hold: the mismatch is a ratio to that motion and cannot be read there), and outside
+    ``frames``, the first pair's map alone.  A weighted mean of non-decreasing maps is
+    non-decreasing, and stays within the pins' tolerance every map holds; it is made
+    non-decreasing over the whole covered span again where it meets the first pair's map at the
+    run's edges.
 
     Parameters
     ----------

@@ -13,7 +13,8 @@ import pytest
 
 from splicer import splice
 from splicer.align.risk import (LOG_FLOOR_S, RiskModel, distance_to_uncovered, error_quantile, feature_names,
-                                risk_features, risk_score, risk_signals, running_max, running_mean)
+                                risk_features, risk_score, risk_signals, running_max, running_mean,
+                                running_sum)
 from splicer.align.risk_model import MODEL, MODEL_NO_WRIST
 from splicer.defaults import RISK_QUANTILE
 from splicer.stages.risk import estimate_risk, side_risk_signals
@@ -34,6 +35,9 @@ def test_running_windows_match_slow_reference(half):
         x = rng.normal(size=n)
         np.testing.assert_array_equal(running_max(x, half), _slow_window(x, half, np.max))
         np.testing.assert_allclose(running_mean(x, half), _slow_window(x, half, np.mean), rtol=1e-12, atol=1e-12)
+        m = rng.normal(size=(n, 3, 3))  # any trailing shape, along the first axis
+        np.testing.assert_allclose(running_sum(m, half), _slow_window(m, half, lambda w: w.sum(axis=0)), rtol=1e-12,
+                                   atol=1e-12)
 
 
 def test_distance_to_uncovered_matches_slow_reference():

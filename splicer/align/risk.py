@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["RiskModel", "SIGNALS", "WRIST_SIGNALS", "WINDOWS_S", "risk_signals", "risk_features", "risk_score", "error_quantile",
-           "running_max", "running_mean", "distance_to_uncovered"]
+           "running_max", "running_sum", "running_mean", "distance_to_uncovered"]
 
 #: The per-frame signals the model reads, in order (:func:`risk_signals`): seconds, except the
 #: speeds (relative to their take's root-mean-square).
@@ -125,6 +125,27 @@ def running_max(x: np.ndarray, half: int) -> np.ndarray:
     return np.lib.stride_tricks.sliding_window_view(p, 2 * half + 1).max(axis=1)
 
 
+def _window_edges(n: int, half: int) -> tuple[np.ndarray, np.ndarray]:
+    i = np.arange(n)
+    return np.maximum(i - half, 0), np.minimum(i + half + 1, n)
+
+
+def running_sum(x: np.ndarray, half: int) -> np.ndarray:
+    """Sum of ``x[i - half : i + half + 1]`` (clipped to the array) per ``i``, along the first
+    axis (any trailing shape), from one running sum.
+
+    >>> running_sum(np.array([0.0, 3.0, 0.0, 0.0]), 1).tolist()
+    [3.0, 3.0, 3.0, 0.0]
+    """
+    x = np.asarray(x, dtype=np.float64)
+    n = len(x)
+    if half <= 0 or n == 0:
+        return x.copy()
+    c = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)])
+    lo, hi = _window_edges(n, half)
+    return c[hi] - c[lo]
+
+
 def running_mean(x: np.ndarray, half: int) -> np.ndarray:
     """Mean of ``x[i - half : i + half + 1]`` (clipped to the array) per ``i``.
 
@@ -135,10 +156,8 @@ def running_mean(x: np.ndarray, half: int) -> np.ndarray:
     n = len(x)
     if half <= 0 or n == 0:
         return x.copy()
-    c = np.concatenate([[0.0], np.cumsum(x)])
-    i = np.arange(n)
-    lo, hi = np.maximum(i - half, 0), np.minimum(i + half + 1, n)
-    return (c[hi] - c[lo]) / (hi - lo)
+    lo, hi = _window_edges(n, half)
+    return running_sum(x, half) / (hi - lo)
 
 
 def distance_to_uncovered(uncovered: np.ndarray) -> np.ndarray:

@@ -36,6 +36,7 @@ from numba import njit
 
 from ..model.rotations import cross3
 from ..transfer.sampling import sample_linear
+from .risk import running_sum
 
 __all__ = ["STEP_FRAMES", "MAX_STEP", "LAMBDA", "ANATOMICAL", "STYLOID", "STILL_WRIST", "comparable_placements", "markers_compare", "wrist_moves", "hand_in_forearm", "turn_onto", "offset_costs", "offset_posterior", "expected_offsets",
            "WristFit", "WristEvidence", "refine_map", "rate_mismatch", "local_rate_mismatch", "noise_share"]
@@ -460,14 +461,6 @@ def rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarr
     return float(np.mean(np.sum((vb - vh) ** 2, axis=1)) / energy)
 
 
-def _window_sums(x: np.ndarray, half: int) -> np.ndarray:
-    """Sums of ``x`` (n, ...) over the rows ``[t - half, t + half]`` (clipped to the rows), every ``t`` at once."""
-    n = len(x)
-    cs = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)])
-    t = np.arange(n)
-    return cs[np.minimum(t + half + 1, n)] - cs[np.maximum(t - half, 0)]
-
-
 def local_rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float,
                         smooth_s: float, window_s: float, min_motion: float = 0.0) -> np.ndarray:
     """:func:`rate_mismatch` over the window of ``window_s`` seconds centred on each frame of the map.
@@ -510,14 +503,14 @@ def local_rate_mismatch(body_points: np.ndarray, hands_points: np.ndarray, c: np
     xh = sample_linear(_direction(hands_points, smooth_s, fps), c)
     vb, vh = np.gradient(xb, axis=0), np.gradient(xh, axis=0)
     half = max(1, int(round(window_s * fps / 2.0)))
-    u, _, vt = np.linalg.svd(_window_sums(xh[:, :, None] * xb[:, None, :], half))  # Kabsch per window
+    u, _, vt = np.linalg.svd(running_sum(xh[:, :, None] * xb[:, None, :], half))  # Kabsch per window
     v, ut = np.swapaxes(vt, 1, 2), np.swapaxes(u, 1, 2)
     d = np.sign(np.linalg.det(v @ ut))
     d[d == 0] = 1.0
     rot = (v * np.stack([np.ones(n), np.ones(n), d], axis=1)[:, None, :]) @ ut  # V diag(1, 1, d) U^T
-    cross = np.einsum("tij,tji->t", rot, _window_sums(vh[:, :, None] * vb[:, None, :], half))  # sum vb . R vh
-    energy = _window_sums(np.sum(vb ** 2, axis=1), half)
-    other = _window_sums(np.sum(vh ** 2, axis=1), half)
+    cross = np.einsum("tij,tji->t", rot, running_sum(vh[:, :, None] * vb[:, None, :], half))  # sum vb . R vh
+    energy = running_sum(np.sum(vb ** 2, axis=1), half)
+    other = running_sum(np.sum(vh ** 2, axis=1), half)
     out = np.full(n, np.nan)
     ok = energy > max(0.0, min_motion * float(np.median(energy)))
     out[ok] = (energy[ok] + other[ok] - 2.0 * cross[ok]) / energy[ok]

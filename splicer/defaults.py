@@ -81,6 +81,25 @@ POSITION_WEIGHT_NOISY = 10.0
 #: 0.033 and 0.025 -> 0.018 s (benchmarks/HISTORY.md, 0.18.0).  A weight of 30 everywhere would
 #: cost the imitation (synthetic 0.030 -> 0.035 s).
 POSITION_WEIGHT_RECHECK = 30.0
+#: The position term also reads the hand's direction in the forearm's frame
+#: (:func:`splicer.align.wrist.hand_in_forearm`), which a second performance's shoulder and elbow
+#: noise does not reach: the signs of its three components' velocities (smoothed over
+#: :data:`WRIST_SIGN_SMOOTH_S`, each rising linearly to +-1 over :data:`WRIST_SIGN_RAMP` times the
+#: component's RMS velocity), scaled by this and appended to the nine position coordinates, so the
+#: term is the mean over twelve columns and one sign's full difference (2) counts as 16 squared
+#: position units (:func:`splicer.align.costs.position_features`; 0.29.0).  Only where the position
+#: term is on and the two takes' hand-in-forearm directions compare
+#: (:func:`splicer.align.wrist.markers_compare`), and only in pass 1's DTW at the body's rate (not
+#: at the coarser rates of its locating levels or guide, nor in the check against the hands played
+#: backwards: at the locating rates it moved one tuning run's overlap by 3 s).  Chosen on
+#: tuning seeds 0-14 (*all*, both takes): scale 1 / 2 / 3 gave synthetic 0.045 (0.227) / 0.031
+#: (0.125) / 0.033 (0.160) s, zeggs 0.030 (0.128) / 0.028 (0.107) / 0.026 (0.101) s, against 0.051
+#: (0.275) and 0.032 (0.144) without (benchmarks/HISTORY.md, 0.29.0).  0 switches it off.
+WRIST_SIGN_SCALE = 2.0
+#: ... the hand-in-forearm direction's smoothing before its velocity is taken, seconds.
+WRIST_SIGN_SMOOTH_S = 0.05
+#: ... and the width of each sign's ramp, as a share of that component's RMS velocity.
+WRIST_SIGN_RAMP = 0.3
 #: ... and, a third candidate, the pair aligned at that weight with each take's phase markers
 #: smoothed so that both are blurred over the same span of the performance, the tempo read from
 #: the first alignment's maps (:mod:`splicer.align.tempo`; 0.27.0); False leaves it out.

@@ -98,8 +98,12 @@ def test_cross_check_on_the_sample(sample):
         # 52 % / 33 % against 21 % / 7 % elsewhere, left / right, the left's 21 % holding 37 of
         # its 38 frames 0.1 s off (test_the_sample_confidence_is_honest); 0.17.0: 49 % / 43 %
         # against 11 % / 11 %; 0.16.0: 68 % / 65 % against 13 %; 0.26.0, whose wrist rounds until
-        # settled mend more of the parted frames: 45 % / 27 % against 9 % / 5 %)
-        assert low[apart].mean() > 0.25 and low[apart].mean() > 3 * low[~apart].mean(), r.side
+        # settled mend more of the parted frames: 45 % / 27 % against 9 % / 5 %; 0.29.0, whose pass 1
+        # reads the hand's turns in the forearm: 29 % / 3 % against 4 % / 0.7 %, the right side never
+        # more than 0.03 s off, so few of its frames are flagged anywhere)
+        assert low[apart].mean() > 3 * low[~apart].mean(), r.side
+        if r.side == "left":
+            assert low[apart].mean() > 0.25
     assert any("disagree" in w for w in sample.report.to_dict()["warnings"])
 
 
@@ -184,21 +188,32 @@ def test_both_hands_get_one_end_condition(sample):
     for both arms (the default) the shared open-ended path stops 1.7 s short, but the right
     arm's own path in its band runs corner to corner, so both are aligned end to end (mean
     error 0.048 s on both sides, measured; left open-ended: 0.10 s).  Each arm alone since 0.23.0,
-    the left side's own 1.5 s left at the end is closed as material that continues the performance."""
+    the left side's own 1.5 s left at the end is closed as material that continues the performance.
+    Since 0.29.0 that end-to-end alignment leaves the hands' maps apart in 36 % of the frames, and
+    the pair is aligned again with noise matching, whose notes replace the first's: the note is
+    read here with noise matching off."""
     truth = np.loadtxt(MOTIONS / "sample_truth.csv", delimiter=",", skiprows=1)[:, 1]
     assert {s: r.alignment.ends for s, r in sample.sides.items()} == {"left": "fixed", "right": "fixed"}
+    first = splice(MOTIONS / "sample_body.bvh", MOTIONS / "sample_hands.bvh", config=MOTIONS / "sample_sync.yaml",
+                   noise_ratio=None)
+    assert {s: r.alignment.ends for s, r in first.sides.items()} == {"left": "fixed", "right": "fixed"}
     assert any("the right arm's own alignment runs from the takes' first frames to their last" in w
-               for w in sample.report.to_dict()["warnings"])
+               for w in first.report.to_dict()["warnings"])
     for r in sample.sides.values():
         err = np.abs(r.hands_frame - truth) / r.markers.spaces.hands_fps
         assert np.nanmean(err) < 0.06
     each = splice(MOTIONS / "sample_body.bvh", MOTIONS / "sample_hands.bvh", config=MOTIONS / "sample_sync.yaml",
                   pass1_arms="each")
     assert {s: r.alignment.ends for s, r in each.sides.items()} == {"left": "fixed", "right": "fixed"}
-    # since 0.23.0 the left side's own end is closed first (pinned pairs too: the sample has pins),
-    # before agree_ends would align it end to end with the right: the same map (0.0205 s mean either way)
-    assert any(w.startswith("left side: the open-ended alignment left hands material that matches the performance")
-               for w in each.report.to_dict()["warnings"])
+    # from 0.23.0 to 0.28.0 the left side's own end was closed first (pinned pairs too: the sample has
+    # pins), before agree_ends would align it end to end with the right: the same map (0.0205 s mean
+    # either way); since 0.29.0 the pair is aligned again with noise matching, whose notes replace the
+    # first alignment's, and that first alignment gives the left the right's end condition (agree_ends)
+    first_each = splice(MOTIONS / "sample_body.bvh", MOTIONS / "sample_hands.bvh",
+                        config=MOTIONS / "sample_sync.yaml", pass1_arms="each", noise_ratio=None)
+    assert {s: r.alignment.ends for s, r in first_each.sides.items()} == {"left": "fixed", "right": "fixed"}
+    assert any(w.startswith("left side: the right side's alignment runs end to end")
+               for w in first_each.report.to_dict()["warnings"])
     left = each.sides["left"]
     err = np.abs(left.hands_frame - truth) / left.markers.spaces.hands_fps
     assert np.nanmean(err) < 0.1

@@ -374,10 +374,12 @@ def test_position_term_keeps_a_second_performance_on_track():
 
 def test_a_noisy_pair_gets_a_second_opinion_on_the_position_weight(monkeypatch):
     """The synthetic speaker, *speed* + *imitation*, seed 0: a second performance whose hands slow
-    to a third of the body's pace.  With the arms' positions weighed 10 (noise matching's weight)
-    pass 1 runs about 1.7 s ahead through the slow gesture (mean error 0.16 s, measured); aligned
-    again at 30, the hand's motion relative to the forearm matches better along the map, that
-    alignment is kept, and the mean error is 0.044 s (measured)."""
+    to a third of the body's pace.  Without the hand-in-forearm signs in pass 1 (0.29.0; switched
+    off here to isolate the second opinion), with the arms' positions weighed 10 (noise matching's
+    weight) pass 1 runs about 1.7 s ahead through the slow gesture (mean error 0.17 s, measured);
+    aligned again at 30, the hand's motion relative to the forearm matches better along the map,
+    that alignment is kept, and the mean error is 0.026 s (measured).  With the signs (the
+    default) the first alignment is already within 0.019 s and is kept."""
     import splicer.defaults as D
     from splicer import splice
     from splicer.evaluation.scenarios import make_scenario, scenario
@@ -392,6 +394,9 @@ def test_a_noisy_pair_gets_a_second_opinion_on_the_position_weight(monkeypatch):
             e.append(np.nanmean(err[np.asarray(sep.covered)]))
         return float(np.mean(e))
 
+    signs = splice(sep.body, sep.hands)
+    assert signs.report.to_dict()["sides"]["left"]["pass1"]["wrist_signs"] and mean_error(signs) < 0.03
+    monkeypatch.setattr(D, "WRIST_SIGN_SCALE", 0.0)
     on = splice(sep.body, sep.hands)
     rep = on.report.to_dict()
     assert rep["sides"]["left"]["pass1"]["position_weight"] == D.POSITION_WEIGHT_RECHECK
@@ -409,7 +414,9 @@ def test_a_second_performance_at_another_tempo_is_smoothed_to_it(monkeypatch):
     takes over 0.2 s, which blurs the fast hands over three times as much of the performance as
     the body; both sides took the slow stretch about 100 body frames early (mean error 0.229 s,
     measured on 0.26.1).  The second opinion smoothed to the first maps' tempo
-    (:mod:`splicer.align.tempo`) is kept, and the mean error is 0.045 s (measured)."""
+    (:mod:`splicer.align.tempo`) is kept, and the mean error is 0.042 s (measured), the mechanism
+    isolated here from pass 1's hand-in-forearm signs (0.29.0), with which the first alignment
+    is within 0.017 s, and is kept."""
     import splicer.defaults as D
     from splicer import splice
 
@@ -420,6 +427,8 @@ def test_a_second_performance_at_another_tempo_is_smoothed_to_it(monkeypatch):
         return float(np.mean([np.nanmean(alignment_error_s(sep, np.asarray(r.hands_frame, dtype=np.float64))[sep.covered])
                               for r in res.sides.values()]))
 
+    assert mean_error(splice(sep.body, sep.hands)) < 0.025
+    monkeypatch.setattr(D, "WRIST_SIGN_SCALE", 0.0)
     on = splice(sep.body, sep.hands)
     notes = on.report.to_dict()["warnings"]
     assert any("smoothed further where one take ran faster" in w for w in notes)
@@ -437,9 +446,10 @@ def test_a_second_performance_signs_its_small_motions_softly(monkeypatch):
     """The synthetic speaker, *imitation*, tuning seed 2: noise matching fires, and pass 1 with
     fixed ends then lets a direction sign rise over half the motion's RMS speed
     (``SIGN_RAMP_NOISY``) instead of 3 %, so the arm noise's small velocities in the rests between
-    gestures count as little motion.  Mean error 0.0113 s, against 0.0149 s with the clean pairs'
-    ramp (measured on 0.26.0, whose wrist rounds until settled mend part of the difference; 0.0127
-    against 0.0195 s before; 0.19.0 had the latter).  Open-ended passes keep the clean ramp."""
+    gestures count as little motion.  Mean error 0.0095 s, against 0.0121 s with the clean pairs'
+    ramp (measured on 0.29.0, whose pass 1 reads the hand's turns in the forearm too; 0.0113 against
+    0.0149 s on 0.26.0, whose wrist rounds until settled mend part of the difference; 0.0127 against
+    0.0195 s before; 0.19.0 had the latter).  Open-ended passes keep the clean ramp."""
     import splicer.align.passes as P
     import splicer.defaults as D
     from splicer import splice
@@ -462,8 +472,9 @@ def test_a_second_performance_signs_its_small_motions_softly(monkeypatch):
         return float(np.mean(e))
 
     soft = splice(sep.body, sep.hands)
-    assert any("arm is noisier" in w for w in soft.report.to_dict()["warnings"])
+    # noise matching's note, or (0.29.0: the second opinion's pair kept, with its own notes) the second opinion's
+    assert any("arm is noisier" in w or "motion looked noisy" in w for w in soft.report.to_dict()["warnings"])
     assert ("fixed", D.SIGN_RAMP_NOISY) in seen and ("open", D.SIGN_RAMP) in seen
     assert all(r == D.SIGN_RAMP for ends, r in seen if ends == "open")
     step = splice(sep.body, sep.hands, sign_ramp_noisy=D.SIGN_RAMP)
-    assert mean_error(soft) < 0.0125 and mean_error(step) > 0.014
+    assert mean_error(soft) < 0.0105 and mean_error(step) > 0.0115

@@ -127,7 +127,7 @@ def test_phase_features_smooth_by_the_markers_blur_first():
     blur = np.linspace(0.0, 3.0, mk.n_frames)
     smooth_s = 0.1
     got = phase_features(replace(mk, blur=blur), smooth_s=smooth_s)
-    rel = varying_gaussian_filter1d(mk.relative(), blur * smooth_s * mk.fps, axis=0)
+    rel = varying_gaussian_filter1d(mk.relative(), blur * (smooth_s * mk.fps), axis=0)  # as phase_features forms it
     ref = phase_features(Markers(rel, np.zeros((mk.n_frames, 3)), mk.heading, mk.up, mk.fps, mk.side),
                          smooth_s=smooth_s)
     np.testing.assert_allclose(got.vel, ref.vel, rtol=1e-12, atol=1e-12)

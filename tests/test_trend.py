@@ -208,11 +208,13 @@ def test_stage_holds_every_pin_and_stays_monotone(sample_stages):
 
 def test_the_sample_is_closer_to_its_truth(sample_stages):
     """Off the protocol the stage was chosen on: the bundled sample's true time map.  Measured:
-    mean error 0.048 -> 0.035 s and 95th percentile 0.15 -> 0.09 s on each side."""
+    mean error 0.029 -> 0.024 s and 95th percentile 0.083 -> 0.069 s on each side (0.29.0, whose
+    pass 1 reads the hand's turns in the forearm: its maps are nearer the truth before the stage;
+    until 0.28.0 0.048 -> 0.035 s and 0.15 -> 0.09 s)."""
     truth = np.loadtxt(MOTIONS / "sample_truth.csv", delimiter=",", skiprows=1)[:, 1]
     out = splicer.trend_time_maps(sample_stages, SpliceOptions())
     for s, r in sample_stages.items():
         before = np.abs(r.hands_frame - truth) / r.markers.spaces.hands_fps
         after = np.abs(out[s].hands_frame - truth) / r.markers.spaces.hands_fps
-        assert np.mean(after) < 0.04 < np.mean(before), s
-        assert np.percentile(after, 95) < 0.1 < np.percentile(before, 95), s
+        assert np.mean(after) < 0.026 < np.mean(before), s
+        assert np.percentile(after, 95) < 0.076 < np.percentile(before, 95), s

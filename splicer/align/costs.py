@@ -33,6 +33,7 @@ import numpy as np
 from numba import njit, prange
 from ..filters import gaussian_filter1d, varying_gaussian_filter1d
 
+from .. import defaults as D
 from ..defaults import DEAD_ZONE, SIGN_RAMP, SMOOTH_S
 from ..rig.markers import Markers
 
@@ -41,6 +42,7 @@ __all__ = [
     "phase_features",
     "d1_cost",
     "position_features",
+    "wrist_sign_features",
     "PalmFeatures",
     "palm_features",
     "d2_cost",
@@ -70,9 +72,10 @@ class PhaseFeatures:
     ramp_vel, ramp_acc : float
         Width of the sign's ramp past the dead zone (same units as ``eps_vel``, ``eps_acc``);
         0: the paper's step.
-    position : np.ndarray [shape=(T, 9)] or None
-        Normalised positions for the position term (:func:`position_features`); None
-        when not asked for.
+    position : np.ndarray [shape=(T, 9) or (T, 12)] or None
+        Normalised positions for the position term (:func:`position_features`), with the
+        hand-in-forearm signs (:func:`wrist_sign_features`) as three more columns when asked
+        for; None when not asked for.
 
     :func:`phase_features` lays ``vel``, ``acc`` and ``window`` out in memory with the frames
     last (they are ``(T, ...)`` views of ``(..., T)`` arrays): D1's kernel reads one coordinate
@@ -150,7 +153,7 @@ def _smooth_derivatives(x: np.ndarray, fps: float, smooth_s: float) -> tuple[np.
 POSITION_MIN_SPREAD = 0.1
 
 
-def position_features(markers: Markers) -> np.ndarray:
+def position_features(markers: Markers, *, wrist_signs: bool = False) -> np.ndarray:
     """The position term's inputs: shoulder-relative ``p1, p2, p4``, heading removed, normalised.
 
     Each frame's wrist and hand markers relative to the shoulder are turned about the up axis
@@ -160,14 +163,20 @@ def position_features(markers: Markers) -> np.ndarray:
     Median and MAD, not mean and standard deviation: extra material at the ends of a hands
     take (a calibration pose held for seconds) barely moves them.
 
+    With ``wrist_signs``, the hand-in-forearm signs of :func:`wrist_sign_features` times
+    :data:`splicer.defaults.WRIST_SIGN_SCALE` follow as three more columns (none when that is 0),
+    so the position term (the mean squared difference over the columns) reads them too.
+
     Parameters
     ----------
     markers : Markers
+    wrist_signs : bool
+        Append the hand-in-forearm signs (both takes of a pair alike: the term compares columns).
 
     Returns
     -------
-    np.ndarray [shape=(T, 9), dtype=float64]
-        Unitless; zeros where the take does not move at all.
+    np.ndarray [shape=(T, 9) or (T, 12), dtype=float64]
+        Unitless; zeros where the take does not move at all (the signs' columns too).
     """
     rel = markers.relative()[:, [0, 1, 3]]
     a, b = horizontal_axes(markers.up)
@@ -177,18 +186,83 @@ def position_features(markers: Markers) -> np.ndarray:
     x[..., a] = cs * rel[..., a] + sn * rel[..., b]  # turned by -heading: a turn by +phi adds phi to the heading
     x[..., b] = -sn * rel[..., a] + cs * rel[..., b]
     x = x.reshape(len(x), -1)
+    extra = wrist_signs and D.WRIST_SIGN_SCALE > 0
+    cols = 12 if extra else 9
     if not len(x):
-        return np.zeros((0, 9))
+        return np.zeros((0, cols))
     med = np.median(x, axis=0)
     mad = 1.4826 * np.median(np.abs(x - med), axis=0)
     top = float(mad.max())
     if not top > 0.0:
-        return np.zeros_like(x)
-    return np.ascontiguousarray((x - med) / np.maximum(mad, POSITION_MIN_SPREAD * top))
+        return np.zeros((len(x), cols))
+    y = (x - med) / np.maximum(mad, POSITION_MIN_SPREAD * top)
+    if extra:
+        y = np.concatenate([y, D.WRIST_SIGN_SCALE * wrist_sign_features(markers)], axis=1)
+    return np.ascontiguousarray(y)
+
+
+def wrist_sign_features(markers: Markers, *, smooth_s: float | None = None,
+                        ramp: float | None = None) -> np.ndarray:
+    """The signs of the hand's turning in the forearm's frame, per frame (0.29.0).
+
+    A second performance's shoulder and elbow noise moves every shoulder-relative marker, and
+    D1's signs then match noise; the hand's direction in the forearm's own frame
+    (:func:`splicer.align.wrist.hand_in_forearm`) does not move with it.  Its three components
+    are smoothed over ``smooth_s`` seconds and differentiated; each velocity is divided by
+    ``ramp`` times that component's RMS velocity over the take and clipped to [-1, 1]: a sign
+    that rises linearly to +-1, so the turns' timing counts, not their size (a wider or narrower
+    gesture turns the same way).
+
+    Parameters
+    ----------
+    markers : Markers
+        ``p1, p2`` on the wrist, ``p3`` up the forearm, ``p4`` on the hand.
+    smooth_s : float, optional
+        Gaussian smoothing of the direction, seconds (>= 0); default
+        :data:`splicer.defaults.WRIST_SIGN_SMOOTH_S`.
+    ramp : float, optional
+        Ramp width as a share of the RMS velocity (> 0); default :data:`splicer.defaults.WRIST_SIGN_RAMP`.
+
+    Returns
+    -------
+    np.ndarray [shape=(T, 3), dtype=float64]
+        In [-1, 1], unitless; zeros where a component never moves.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from splicer.rig.markers import Markers
+    >>> t = np.arange(60) / 30.0
+    >>> ang = np.where(t < 1.0, t, 2.0 - t)                       # the hand turns one way, then back
+    >>> p = np.zeros((60, 4, 3)); p[:, 0, 1], p[:, 1, 1], p[:, 2, 0] = 0.5, -0.5, 1.0
+    >>> p[:, 3, 0], p[:, 3, 2] = -np.cos(ang), np.sin(ang)        # in the forearm's x-z plane
+    >>> mk = Markers(p, np.zeros((60, 3)), np.zeros(60), 1, 30.0, "right")
+    >>> s = wrist_sign_features(mk, smooth_s=0.0)
+    >>> float(s[10, 2]), float(s[50, 2])                           # z: up, then down
+    (1.0, -1.0)
+    """
+    from .wrist import hand_in_forearm
+
+    smooth_s = D.WRIST_SIGN_SMOOTH_S if smooth_s is None else smooth_s
+    ramp = D.WRIST_SIGN_RAMP if ramp is None else ramp
+    if not smooth_s >= 0.0 or not ramp > 0.0:
+        raise ValueError(f"smooth_s must be >= 0 and ramp > 0, got {smooth_s!r} and {ramp!r}")
+    d = hand_in_forearm(markers.points)
+    if len(d) < 2:
+        return np.zeros((len(d), 3))
+    sigma = smooth_s * markers.fps
+    if sigma > 0:
+        d = gaussian_filter1d(d, sigma, axis=0, mode="nearest")
+    v = np.gradient(d, axis=0)
+    rms = np.sqrt(np.mean(v ** 2, axis=0))
+    out = np.zeros_like(v)
+    ok = rms > 0.0
+    out[:, ok] = np.clip(v[:, ok] / (ramp * rms[ok]), -1.0, 1.0)
+    return out
 
 
 def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE,
-                   sign_ramp: float = SIGN_RAMP, position: bool = False) -> PhaseFeatures:
+                   sign_ramp: float = SIGN_RAMP, position: bool = False, wrist_signs: bool = False) -> PhaseFeatures:
     """Prepare D1's inputs for one motion.
 
     Parameters
@@ -212,6 +286,9 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         :data:`splicer.defaults.SIGN_RAMP`.
     position : bool
         Also prepare the position term's inputs (:func:`position_features`).
+    wrist_signs : bool
+        With ``position``: the position term reads the hand-in-forearm signs too
+        (:func:`wrist_sign_features`).
     """
     rel = markers.relative()
     if markers.blur is not None:  # tempo-matched smoothing first (splicer.align.tempo)
@@ -224,7 +301,8 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
     return PhaseFeatures(
         vel, acc, dead_zone * rms_v, dead_zone * rms_a, win,
         np.array(markers.heading, dtype=np.float64), markers.up,  # a writable copy: one compiled D1 kernel, not two
-        sign_ramp * rms_v, sign_ramp * rms_a, position_features(markers) if position else None,
+        sign_ramp * rms_v, sign_ramp * rms_a,
+        position_features(markers, wrist_signs=wrist_signs) if position else None,
     )
 
 
@@ -377,6 +455,9 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window",
         raise ValueError(f"position_weight must be >= 0 and finite, got {position_weight!r}")
     if w > 0.0 and (body.position is None or hands.position is None):
         raise ValueError("a position weight needs phase_features(..., position=True) on both takes")
+    if w > 0.0 and body.position.shape[1] != hands.position.shape[1]:
+        raise ValueError(f"the takes' position features have {body.position.shape[1]} and "
+                         f"{hands.position.shape[1]} columns: both need the same wrist_signs")
     # frames last (see _d1_terms), writable C arrays throughout: one compiled kernel each
     sv = _sign_array(_frames_last(body.vel), body.eps_vel, body.ramp_vel)
     sa = _sign_array(_frames_last(body.acc), body.eps_acc, body.ramp_acc)
@@ -405,16 +486,16 @@ def d1_cost(body: PhaseFeatures, hands: PhaseFeatures, *, theta: str = "window",
 @njit(cache=True, parallel=True)
 def _position_rows(i0, i1, lo, hi, xb, xh, weight, out):
     # adds weight * mean_k (xb[i, k] - xh[j, k])^2 to every band cell of rows i0..i1-1
-    D = xb.shape[1]
+    ncol = xb.shape[1]
     for r in prange(i1 - i0):
         i = i0 + r
         for c in range(hi[i] - lo[i] + 1):
             j = lo[i] + c
             s = 0.0
-            for k in range(D):
+            for k in range(ncol):
                 d = xb[i, k] - xh[j, k]
                 s += d * d
-            out[r, c] += weight * s / D
+            out[r, c] += weight * s / ncol
 
 
 @dataclass(frozen=True, eq=False)

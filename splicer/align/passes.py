@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .band import full_band
+from .. import defaults as D
 from ..defaults import DEAD_ZONE, SIGN_RAMP, SMOOTH_S
 from .dtw import Band, Constraint, DTWResult, dtw, make_band
 from ..errors import BandError
@@ -103,6 +104,7 @@ class PassResult:
     arm_uncovered: tuple = ()
     held_rows: object = None  # np.ndarray (n,) bool or None: the full-rate DTW's held rows (body holds)
     tempo_matched: bool = False  # pass 1 read markers smoothed to the other take's tempo (Markers.blur)
+    wrist_signs: bool = False  # pass 1's position term read the hand-in-forearm signs (align.costs.wrist_sign_features)
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
@@ -125,17 +127,22 @@ class Arm:
         Its phase metric's marker smoothing (noise matching decides it per side).
     position_weight : float
         Its position term's weight (0 where positions do not compare: a hand-only file, optical markers).
+    wrist_signs : bool
+        Its position term reads the hand-in-forearm signs too
+        (:func:`splicer.align.costs.wrist_sign_features`), at the body's rate only: an arm
+        resampled for a coarser level drops them.
     """
 
     body: Markers
     hands: Markers
     smooth_s: float = SMOOTH_S
     position_weight: float = 0.0
+    wrist_signs: bool = False
 
 
-def _arms(body, hands, smooth_s, position_weight, others) -> list:
+def _arms(body, hands, smooth_s, position_weight, others, wrist_signs=False) -> list:
     """Every arm of a pass 1, the first one given as ``pass1``'s own arguments; checked to share frames."""
-    arms = [Arm(body, hands, smooth_s, position_weight)] + list(others)
+    arms = [Arm(body, hands, smooth_s, position_weight, wrist_signs)] + list(others)
     for a in arms[1:]:
         if not isinstance(a, Arm):
             raise TypeError(f"others must hold Arm objects, got {type(a).__name__}")
@@ -147,12 +154,20 @@ def _arms(body, hands, smooth_s, position_weight, others) -> list:
     return arms
 
 
+def _wrist_signs(arms: list) -> bool:
+    """Whether any arm's position term read the hand-in-forearm signs."""
+    return any(a.wrist_signs and a.position_weight > 0 and D.WRIST_SIGN_SCALE > 0 for a in arms)
+
+
 def _blurred(arms: list) -> bool:
     """Whether any arm's markers carry the tempo-matched smoothing (:attr:`Markers.blur`)."""
     return any(x.blur is not None for a in arms for x in (a.body, a.hands))
 
 
 def _resampled(arms: list, fps: float) -> list:
+    """The arms at a coarser rate, without the hand-in-forearm signs (the turns of a hand in its
+    forearm blur into each other at 1-10 fps; at the locating rates the signs moved one tuning
+    run's overlap by 3 s: benchmarks/HISTORY.md, 0.29.0)."""
     return [Arm(resample_markers(a.body, fps), resample_markers(a.hands, fps), a.smooth_s, a.position_weight)
             for a in arms]
 
@@ -160,7 +175,8 @@ def _resampled(arms: list, fps: float) -> list:
 def _arm_features(arms: list, dead_zone: float, sign_ramp: float) -> list:
     """Each arm's (body, hands) phase features."""
     return [tuple(phase_features(x, smooth_s=a.smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp,
-                                 position=a.position_weight > 0) for x in (a.body, a.hands)) for a in arms]
+                                 position=a.position_weight > 0, wrist_signs=a.wrist_signs)
+                  for x in (a.body, a.hands)) for a in arms]
 
 
 def _arms_cost(arms: list, features: list, theta: str):
@@ -272,7 +288,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
           horizontal_weight: float | None = None, guide: np.ndarray | None = None,
           cache_bytes: int = CACHE_BYTES, position_weight: float = 0.0, others=(),
-          held_rows=None) -> PassResult:
+          held_rows=None, wrist_signs: bool = False) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -347,6 +363,10 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         Beyond the paper: body frames where the body holds still
         (:func:`splicer.align.holds.held_rows`); the full-rate DTW crosses them on one hands
         frame at no cost (:func:`splicer.align.dtw.dtw`).  None: none, the paper.
+    wrist_signs : bool
+        Beyond the paper: with ``position_weight > 0``, the position term reads the hand's
+        turning in the forearm's frame too (:func:`splicer.align.costs.wrist_sign_features`),
+        in the DTW at the body's rate (not at a coarser rate).  ``others`` say it per arm.
 
     Returns
     -------
@@ -361,7 +381,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     """
     if ends not in ("fixed", "open"):
         raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
-    arms = _arms(body, hands, smooth_s, position_weight, others)
+    arms = _arms(body, hands, smooth_s, position_weight, others, wrist_signs)
     if ends == "open":
         return _pass1_open(arms, width=width, constraints=constraints,
                            dead_zone=dead_zone, sign_ramp=sign_ramp, theta=theta,
@@ -402,7 +422,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     res = _run(kept, band, progress, step_penalty=step_penalty, horizontal_weight=hw, held_rows=held_rows)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, 0.0, "fixed", step_penalty, hw,
                       notes=notes, kept_cost=kept, position_weight=float(position_weight), arms=len(arms),
-                      arm_costs=each, held_rows=held_rows, tempo_matched=_blurred(arms))
+                      arm_costs=each, held_rows=held_rows, tempo_matched=_blurred(arms),
+                      wrist_signs=_wrist_signs(arms))
 
 
 def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
@@ -468,14 +489,26 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
     else:
         band = cband
     band, held_rows = hold_band(band, held_rows)
-    d1, each = (d1c, ceach) if carms is arms else _arms_cost(arms, _arm_features(arms, dead_zone, sign_ramp), theta)
+    if carms is arms:
+        d1, each = d1c, ceach
+    else:
+        feats = _arm_features(arms, dead_zone, sign_ramp)
+        d1, each = _arms_cost(arms, feats, theta)
+        if uncovered_cost is None and _wrist_signs(arms):
+            # the hand-in-forearm signs enter the costs at this rate only: the penalty from these costs
+            # (from the locating level's, the start of tuning seed 4's ZEGGS speed + imitation pair was
+            # 0.13 s off; 0.03 s so; benchmarks/HISTORY.md, 0.29.0)
+            u = uncovered_penalty(_arms_sample(arms, feats, theta), uncovered_quantile)
+            if arm_u:  # and each arm's own (arm_alone), from its own costs at this rate
+                arm_u = tuple(uncovered_penalty(_arms_sample([a], [f], theta), uncovered_quantile)
+                              for a, f in zip(arms, feats))
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
     second = None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
     res = _run(kept, band, second, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
                horizontal_weight=horizontal_weight, held_rows=held_rows)
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
                       float(horizontal_weight), located, body.fps, notes, kept, float(position_weight), len(arms),
-                      each, arm_u, held_rows, tempo_matched=_blurred(arms))
+                      each, arm_u, held_rows, tempo_matched=_blurred(arms), wrist_signs=_wrist_signs(arms))
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

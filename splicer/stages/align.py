@@ -202,11 +202,27 @@ def _no_evidence_error_s(hands_frames: int, fps: float) -> float:
 
 
 def _other_arms(extra: list, open_ends: bool) -> tuple:
-    """Pass 1's other arms (``(SideMarkers, smooth_s, fixed-ends weight, open-ends weight)`` each) as
-    :class:`splicer.align.passes.Arm`, with the position weight of the end condition."""
+    """Pass 1's other arms (``(SideMarkers, smooth_s, fixed-ends weight, open-ends weight, wrist signs)``
+    each) as :class:`splicer.align.passes.Arm`, with the position weight of the end condition."""
     from ..align.passes import Arm
 
-    return tuple(Arm(o.body, o.hands, osm, w_open if open_ends else w_fixed) for o, osm, w_fixed, w_open in extra)
+    return tuple(Arm(o.body, o.hands, osm, w_open if open_ends else w_fixed, wrist)
+                 for o, osm, w_fixed, w_open, wrist in extra)
+
+
+def wrist_signs_compare(markers: SideMarkers) -> bool:
+    """Whether pass 1's position term may read this side's hand-in-forearm signs
+    (:func:`splicer.align.costs.wrist_sign_features`, :data:`splicer.defaults.WRIST_SIGN_SCALE`):
+    both takes' markers placed alike and the hand's direction in the forearm readable in both
+    (:func:`splicer.align.wrist.markers_compare`, the wrist's refinement's rule).  The signs are
+    components in each take's own forearm frame, so unlike the refinement no fixed turn between
+    two placements is taken out: placements must be the same.  The term itself is on only where
+    the position term is (:func:`position_weights`)."""
+    from ..align.wrist import markers_compare
+
+    body, hands = markers.placed
+    return bool(D.WRIST_SIGN_SCALE > 0 and body == hands
+                and markers_compare(markers.placed, markers.body.points, markers.hands.points))
 
 
 def _unmatched(evidence) -> bool:
@@ -283,11 +299,12 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
     if noisy is None:
         noisy = smooth_s > opts.smooth_s
     pos_fixed, pos_open = position_weights(opts, markers, noisy)
+    wrist = wrist_signs_compare(markers)
     extra = []
     for k, o in enumerate(others):
         o_fixed, o_open = position_weights(opts, o, noisy)
         osm = other_smooth[k] if k < len(other_smooth) else smooth_s
-        extra.append((o, osm, o_fixed, o_open))
+        extra.append((o, osm, o_fixed, o_open, wrist_signs_compare(o)))
 
     # a second performance's noise (not optical markers' measured noise: measured worse there)
     soft = noisy and not markers.noise and not any(o.noise for o in others)
@@ -312,7 +329,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                   uncovered_quantile=opts.uncovered_quantile,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
                   coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
-                  guide=None if open_ends else guide_path, others=arms, held_rows=held,
+                  guide=None if open_ends else guide_path, others=arms, held_rows=held, wrist_signs=wrist,
                   progress=lambda f: log.progress(f"{label}: {stage}", f))
         return p, w1, w2, cons
 

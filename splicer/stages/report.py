@@ -159,6 +159,7 @@ def build_report(inputs: Inputs, opts: SpliceOptions, sides: dict, log: Log, ext
             info["arms"] = p.arms  # 2: one pass 1 for both hands (stages.align.arms_together)
             info["body_holds"] = [list(h) for h in hold_ranges(getattr(p, "held_rows", None))]  # align.holds
             info["tempo_matched"] = bool(getattr(p, "tempo_matched", False))  # align.tempo (a second opinion)
+            info["wrist_signs"] = bool(getattr(p, "wrist_signs", False))  # the hand-in-forearm signs (align.costs)
         return info
 
     side_reports = {}

@@ -201,6 +201,15 @@ WRIST_SETTLE_S = 1.0 / 300.0
 #: is not there (0.21.0: the protocol's markers made without noise measure 1e-5 to 1.7e-4, the
 #: shared Vicon capture 6.6e-5, the protocol's 1-2 mm of noise 0.004-0.19; benchmarks/HISTORY.md).
 WRIST_ROUNDS_NOISE_SHARE_MAX = 1e-3
+#: Where the body holds still (pass 1's body holds, :mod:`splicer.align.holds`) its hand does not
+#: move in the forearm, and the wrist's refinement has nothing to read: its costs there, and over
+#: this many seconds either side (the body slows into and out of a hold), are 0, so the offset
+#: is carried across the hold by the offset path's smoothness instead of drifting to wherever the
+#: hands move least (0.29.0).  Tuning seeds 0-14, *all*: margin 0 / 0.125 / 0.33 s gave synthetic
+#: 0.0298 (0.113) / 0.0296 (0.110) / 0.0300 (0.113) s and zeggs 0.0285 (0.106) / 0.0285 (0.105) /
+#: 0.0285 (0.107), against 0.0311 (0.124) and 0.0278 (0.104) reading the hold
+#: (benchmarks/HISTORY.md, 0.29.0).  None switches it off.
+WRIST_HOLD_MARGIN_S = 0.125
 #: Median merge: frames blended each side of a jump.
 BLEND_WINDOW_FRAMES = 4
 #: Rate of the coarse guide pass of long takes, frames per second.

@@ -506,3 +506,82 @@ def test_a_wrist_that_never_turns_holds_nothing_to_read():
     assert markers_compare((ANATOMICAL, ANATOMICAL), moving, moving)
     assert not markers_compare((ANATOMICAL, ANATOMICAL), moving, rigid)
     assert not wrist_moves(moving[:1])  # one frame: nothing to read
+
+
+# ---------------------------------------------------------------- where the body holds still (0.29.0)
+
+def _held_body(truth: np.ndarray, hold: slice) -> np.ndarray:
+    """The body's arm along ``truth``, its hand frozen over ``hold`` (the body performer holds)."""
+    body = _arm(truth)
+    body[hold] = body[hold.start - 1]
+    return body
+
+
+def test_refine_map_reads_nothing_where_the_body_holds_still():
+    """A body that holds for 1.5 s while the hands go on: the true map is flat there.  Reading
+    the hold, the refinement matches the still hand to wherever the hands move least and drifts
+    off the flat map; told the hold (``still``), it carries the offset across it by the offset
+    path's smoothness, and the map stays flat within a tenth of a frame (worked: the map is right
+    before and after the hold, so the offset is 0 on both sides)."""
+    fps = 30.0
+    hands = _arm(np.arange(400, dtype=float))
+    idx = np.arange(250, dtype=float)
+    hold = slice(100, 145)
+    truth = 50.0 + idx
+    truth[hold] = truth[hold.start - 1]
+    truth[hold.stop:] -= hold.stop - hold.start  # the body resumes where it held
+    body = _held_body(truth, hold)
+    kw = dict(fps=fps, radius_s=0.25, smooth_s=0.05, offset_smooth_s=1 / 3, slope_s=0.5)
+    read = refine_map(body, hands, truth, **kw)
+    still = np.zeros(250, bool)
+    still[hold.start - 4:hold.stop + 4] = True
+    told = refine_map(body, hands, truth, still=still, **kw)
+    inside = slice(hold.start + 5, hold.stop - 5)
+    assert np.max(np.abs(told.offset[inside])) < 0.1
+    # measured: up to 1.02 frames off reading the hold, 0.073 told
+    assert np.max(np.abs(read.offset[inside])) > 5 * np.max(np.abs(told.offset[inside]))
+    # frames outside the hold and its margin are read as before (the offset path is one path, so
+    # only nearly: measured within 0.0096 frames 40 frames away from the hold)
+    far = np.r_[0:hold.start - 40, hold.stop + 40:250]
+    np.testing.assert_allclose(told.offset[far], read.offset[far], atol=0.02)
+    with pytest.raises(ValueError, match="one flag per frame"):
+        refine_map(body, hands, truth, still=still[:-1], **kw)
+
+
+def test_stage_leaves_the_holds_unread(weighed, monkeypatch):
+    """The stage hands refine_map the body holds of pass 1 (its held rows' holds, plus
+    WRIST_HOLD_MARGIN_S either side, clipped to the covered span); none without holds or with
+    the margin None."""
+    from dataclasses import replace as dc_replace
+
+    import splicer.align.wrist as W
+    import splicer.defaults as D
+    from splicer.align.holds import held_rows
+    from splicer.stages.transfer import _covered_span, _held_frames
+
+    seen = []
+    real = W.refine_map
+
+    def spy(*a, **kw):
+        seen.append(kw.get("still"))
+        return real(*a, **kw)
+
+    monkeypatch.setattr(W, "refine_map", spy)
+    splicer.refine_time_maps(weighed, SpliceOptions())
+    assert seen and all(s is None for s in seen)  # the sample's body never holds still
+    r = weighed["left"]
+    n = len(r.hands_frame)
+    held = held_rows(n, [(200, 240)])
+    al = dc_replace(r.alignment, pass1=dc_replace(r.alignment.pass1, held_rows=held))
+    pad = int(round(D.WRIST_HOLD_MARGIN_S * r.markers.spaces.body_fps))
+    still = _held_frames(al, 0, n - 1, r.markers.spaces.body_fps)
+    assert np.flatnonzero(still).tolist() == list(range(200 - pad, 241 + pad))
+    assert _held_frames(al, 220, n - 1, 30.0)[:20].all()  # a span starting inside the hold
+    assert _held_frames(al, 300, n - 1, 30.0) is None  # the hold outside the span
+    monkeypatch.setattr(D, "WRIST_HOLD_MARGIN_S", None)
+    assert _held_frames(al, 0, n - 1, 30.0) is None
+    seen.clear()
+    monkeypatch.setattr(D, "WRIST_HOLD_MARGIN_S", 0.125)
+    splicer.refine_time_maps({"left": dc_replace(r, alignment=al)}, SpliceOptions())
+    a = _covered_span(al)[0]
+    assert seen and all(s is not None and s[200 - a] and s[240 - a] for s in seen)

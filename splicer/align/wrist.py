@@ -384,7 +384,7 @@ class WristEvidence:
 
 
 def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float, radius_s: float,
-               smooth_s: float, offset_smooth_s: float, slope_s: float) -> WristFit:
+               smooth_s: float, offset_smooth_s: float, slope_s: float, still=None) -> WristFit:
     """The map ``c`` (common frames, one per body frame) moved by the wrist's best smooth offset.
 
     Parameters
@@ -400,6 +400,10 @@ def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray,
     radius_s, smooth_s, offset_smooth_s, slope_s : float
         The offsets searched (each side), the markers' smoothing, the offset path's smoothing,
         and the window of the map's slope, seconds.
+    still : np.ndarray [shape=(n,), dtype=bool], optional
+        Frames where the body holds still (its hand does not move in the forearm: nothing to
+        read): their costs are 0, so the offset is carried across them by the offset path's
+        smoothness (:data:`splicer.defaults.WRIST_HOLD_MARGIN_S`).  None: every frame read.
 
     Returns
     -------
@@ -418,6 +422,11 @@ def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray,
     radius = radius_s * fps
     offsets = np.arange(-np.floor(radius / STEP_FRAMES), np.floor(radius / STEP_FRAMES) + 1) * STEP_FRAMES
     e = offset_costs(vb, vh, c, slope, offsets)
+    if still is not None:
+        still = np.asarray(still, dtype=bool)
+        if still.shape != (n,):
+            raise ValueError(f"still must have one flag per frame of the map ({n}), got shape {still.shape}")
+        e[still] = 0.0
     mean, sd = offset_posterior(e, offsets)
     d = _smooth(mean, offset_smooth_s * fps)
     return WristFit(np.maximum.accumulate(np.clip(c + d, 0.0, m - 1.0)), d, sd)

@@ -115,11 +115,32 @@ def trend_time_maps(sides: dict, opts: SpliceOptions) -> dict:
     return out
 
 
+def _held_frames(alignment: Alignment, a: int, b: int, fps: float) -> np.ndarray | None:
+    """Body frames ``a..b`` the wrist's refinement does not read: pass 1's body holds and
+    :data:`~splicer.defaults.WRIST_HOLD_MARGIN_S` either side; None without holds (or with the
+    margin None)."""
+    from ..align.holds import hold_ranges
+    from ..defaults import WRIST_HOLD_MARGIN_S
+
+    p1 = alignment.pass1
+    holds = hold_ranges(getattr(p1, "held_rows", None)) if p1 is not None else []
+    if WRIST_HOLD_MARGIN_S is None or not len(holds):
+        return None
+    pad = int(round(WRIST_HOLD_MARGIN_S * fps))
+    still = np.zeros(b - a + 1, dtype=bool)
+    for h0, h1 in holds:
+        lo, hi = max(h0 - pad, a), min(h1 + pad, b)
+        if lo <= hi:
+            still[lo - a:hi - a + 1] = True
+    return still if still.any() else None
+
+
 def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -> dict:
     """Stage 6c, continued: each time map moved by the hand's motion relative to the forearm (:mod:`splicer.align.wrist`).
 
     Within ``opts.wrist_radius_s`` of the map, the smooth offset whose hand-in-forearm rate of
-    change best matches the body's is added to the covered frames' map; then the map is made
+    change best matches the body's is added to the covered frames' map (where the body holds
+    still, nothing is read: :func:`_held_frames`); then the map is made
     monotone again and every pin held (:func:`splicer.transfer.timemap.monotone_pinned`).  Where
     the markers carry no measured noise this runs in rounds, each from the map the last one left:
     at least :data:`~splicer.defaults.WRIST_ROUNDS_MIN`, at most
@@ -187,9 +208,11 @@ def refine_time_maps(sides: dict, opts: SpliceOptions, log: Log | None = None) -
         quiet = alike and share < WRIST_ROUNDS_NOISE_SHARE_MAX
         rounds = WRIST_ROUNDS if not noise or quiet else 1
         offset = 0.0
+        still = _held_frames(r.alignment, a, b, sp.body_fps)
         for done in range(1, rounds + 1):
             fit = refine_map(body_pts, hands_pts, c, fps=sp.body_fps, radius_s=opts.wrist_radius_s,
-                             smooth_s=WRIST_SMOOTH_S, offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S)
+                             smooth_s=WRIST_SMOOTH_S, offset_smooth_s=WRIST_OFFSET_SMOOTH_S, slope_s=WRIST_SLOPE_S,
+                             still=still)
             c, offset = fit.refined, offset + fit.offset
             # settled: past the first rounds, a round that moved the map by under WRIST_SETTLE_S on average
             if done >= WRIST_ROUNDS_MIN and float(np.mean(np.abs(fit.offset))) < WRIST_SETTLE_S * sp.body_fps:

@@ -384,7 +384,8 @@ class WristEvidence:
 
 
 def refine_map(body_points: np.ndarray, hands_points: np.ndarray, c: np.ndarray, *, fps: float, radius_s: float,
-               smooth_s: float, offset_smooth_s: float, slope_s: float, still=None) -> WristFit:
+               smooth_s: float, offset_smooth_s: float, slope_s: float,
+               still: np.ndarray | None = None) -> WristFit:
     """The map ``c`` (common frames, one per body frame) moved by the wrist's best smooth offset.
 
     Parameters

@@ -241,18 +241,15 @@ def wrist_sign_features(markers: Markers, *, smooth_s: float | None = None,
     >>> float(s[10, 2]), float(s[50, 2])                           # z: up, then down
     (1.0, -1.0)
     """
-    from .wrist import hand_in_forearm
+    from .wrist import _direction  # the hand's direction in the forearm's frame, smoothed, as the wrist's stage reads it
 
     smooth_s = D.WRIST_SIGN_SMOOTH_S if smooth_s is None else smooth_s
     ramp = D.WRIST_SIGN_RAMP if ramp is None else ramp
     if not smooth_s >= 0.0 or not ramp > 0.0:
         raise ValueError(f"smooth_s must be >= 0 and ramp > 0, got {smooth_s!r} and {ramp!r}")
-    d = hand_in_forearm(markers.points)
+    d = _direction(markers.points, smooth_s, markers.fps)
     if len(d) < 2:
         return np.zeros((len(d), 3))
-    sigma = smooth_s * markers.fps
-    if sigma > 0:
-        d = gaussian_filter1d(d, sigma, axis=0, mode="nearest")
     v = np.gradient(d, axis=0)
     rms = np.sqrt(np.mean(v ** 2, axis=0))
     out = np.zeros_like(v)

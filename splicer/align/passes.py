@@ -267,6 +267,15 @@ def _arms_sample(arms: list, features: list, theta: str) -> np.ndarray:
     return sum(out) / len(out)
 
 
+def _uncovered_penalties(arms: list, features: list, theta: str, quantile: float, *, each: bool) -> tuple:
+    """The open ends' uncovered penalty from these arms' local costs (:func:`uncovered_penalty` of
+    :func:`_arms_sample`), and with ``each`` and several arms each arm's own (``()`` otherwise)."""
+    u = uncovered_penalty(_arms_sample(arms, features, theta), quantile)
+    if not each or len(arms) < 2:
+        return u, ()
+    return u, tuple(uncovered_penalty(_arms_sample([a], [f], theta), quantile) for a, f in zip(arms, features))
+
+
 def _run(cost, band: Band, progress=None, **ends) -> DTWResult:
     """The DTW over ``band`` with a band-chunk cost; ``progress(fraction)`` after each chunk of rows.
     ``ends``: :func:`splicer.dtw.dtw`'s ``open_begin``, ``open_end``, ``uncovered_cost``."""
@@ -449,11 +458,8 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
         d1c, ceach = _arms_cost(carms, cfeat, theta)
         u = uncovered_cost
         arm_u: tuple = ()
-        if u is None:
-            u = uncovered_penalty(_arms_sample(carms, cfeat, theta), uncovered_quantile)
-            if len(carms) > 1 and level == len(rates) - 1:  # each arm's own, for its own path (arm_paths)
-                arm_u = tuple(uncovered_penalty(_arms_sample([a], [f], theta), uncovered_quantile)
-                              for a, f in zip(carms, cfeat))
+        if u is None:  # the last level's also each arm's own, for its own path (arm_paths)
+            u, arm_u = _uncovered_penalties(carms, cfeat, theta, uncovered_quantile, each=level == len(rates) - 1)
         if offset_s is not None:
             cw = (coarse_width if coarse_width is not None else 30.0 * body.fps) / factor
             cband = offset_band(nc, mc, offset_s * cfps, cw, ccons)
@@ -498,10 +504,7 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
             # the hand-in-forearm signs enter the costs at this rate only: the penalty from these costs
             # (from the locating level's, the start of tuning seed 4's ZEGGS speed + imitation pair was
             # 0.13 s off; 0.03 s so; benchmarks/HISTORY.md, 0.29.0)
-            u = uncovered_penalty(_arms_sample(arms, feats, theta), uncovered_quantile)
-            if arm_u:  # and each arm's own (arm_alone), from its own costs at this rate
-                arm_u = tuple(uncovered_penalty(_arms_sample([a], [f], theta), uncovered_quantile)
-                              for a, f in zip(arms, feats))
+            u, arm_u = _uncovered_penalties(arms, feats, theta, uncovered_quantile, each=bool(arm_u))
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
     second = None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
     res = _run(kept, band, second, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,

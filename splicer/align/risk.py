@@ -152,12 +152,11 @@ def running_mean(x: np.ndarray, half: int) -> np.ndarray:
     >>> running_mean(np.array([0.0, 3.0, 0.0, 0.0]), 1).tolist()
     [1.5, 1.0, 1.0, 0.0]
     """
-    x = np.asarray(x, dtype=np.float64)
-    n = len(x)
-    if half <= 0 or n == 0:
-        return x.copy()
-    lo, hi = _window_edges(n, half)
-    return running_sum(x, half) / (hi - lo)
+    total = running_sum(x, half)
+    if half <= 0 or len(total) == 0:
+        return total
+    lo, hi = _window_edges(len(total), half)
+    return total / (hi - lo)
 
 
 def distance_to_uncovered(uncovered: np.ndarray) -> np.ndarray:

@@ -118,6 +118,18 @@ SECOND_OPINION_TAU = 0.1
 #: motion, the kept pair's map alone (the mismatch is a ratio to that motion: near a rest it read
 #: 5-7 for every candidate, and the combination took a start 0.1 -> 0.4 s off; test_close_ends).
 SECOND_OPINION_MIN_MOTION = 0.25
+#: A second opinion whose time maps lie further than this from the first pair's (the median over
+#: the body frames both cover, seconds) placed the hands' material elsewhere altogether, and the
+#: frames both cover cannot judge it (one pair is matched to the other's unrelated material
+#: there): each pair is judged along the frames it covers itself
+#: (:func:`splicer.stages.recheck.own_mismatch`), the second opinion kept whole when it matches
+#: better there, else left out (0.29.1).  Tuning seeds 0-39, *all*: two such pairs, the synthetic
+#: seed 20 (the second opinions mapped the body's first 29 s onto the hands' last 10 s; the
+#: common frames kept them, 22.6 s mean error with half of the wrong frames at full confidence;
+#: now left out, 0.55 s, 94 % flagged) and seed 24 (the first alignment 2.9 s off, the second
+#: opinions right; now kept, 0.027 s); in the other 78 pairs the medians were at most 0.11 s
+#: (benchmarks/HISTORY.md, 0.29.1).
+SECOND_OPINION_RELOCATED_S = 1.0
 #: The tempo's slope smoothing (a Gaussian's standard deviation, seconds) and its limits
 #: (hands seconds per body second): as the prototype measured in benchmarks/HISTORY.md, 0.26.1.
 TEMPO_SLOPE_S = 0.5

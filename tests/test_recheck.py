@@ -113,7 +113,7 @@ def test_tempo_matching_switched_off_aligns_once_more(stand_ins, monkeypatch):
 
 
 @pytest.mark.parametrize("case", ["weight given", "clean pair", "hand-only", "optical", "placed apart", "not a number",
-                                  "still wrist", "one side", "another performance", "switched off"])
+                                  "still wrist", "one side", "switched off"])
 def test_who_gets_no_second_opinion(stand_ins, monkeypatch, case):
     opts, sides = SpliceOptions(), _pair()
     if case == "weight given":
@@ -134,13 +134,22 @@ def test_who_gets_no_second_opinion(stand_ins, monkeypatch, case):
         sides = _pair(hands=SimpleNamespace(points=np.ones((N, 4, 3))))
     elif case == "one side":
         sides = {"left": _side()}
-    elif case == "another performance":  # no better than the hands played backwards: all low confidence anyway
-        sides = _pair(ratio=D.BACKWARDS_RATIO)
     else:
         monkeypatch.setattr(D, "POSITION_WEIGHT_RECHECK", 0.0)
     assert not R.wants_second_opinion(sides, opts)
     out = R.position_second_opinion(sides, opts, Log(), realign=stand_ins.realign, finish=stand_ins.finish, since=0)
     assert out is sides and stand_ins.calls == []
+
+
+def test_a_pair_that_looks_like_two_performances_gets_one_too(stand_ins):
+    """The first alignment no better than the hands played backwards (0.29.1): a second opinion may
+    find the performance it lost (its own check then decides its confidence)."""
+    sides = _pair(ratio=D.BACKWARDS_RATIO)
+    assert R.wants_second_opinion(sides, SpliceOptions())
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.4, "tempo": 0.5})
+    out = R.position_second_opinion(sides, SpliceOptions(), Log(), realign=stand_ins.realign,
+                                    finish=stand_ins.finish, since=0)
+    assert out is stand_ins.second and len(stand_ins.calls) == 2
 
 
 def test_map_mismatch_reads_the_frames_both_cover():
@@ -232,3 +241,75 @@ def test_the_pair_kept_is_combined_with_the_others(stand_ins, monkeypatch):
     median = R.position_second_opinion(first, SpliceOptions(merge="median"), Log(), realign=stand_ins.realign,
                                        finish=stand_ins.finish, since=0)
     assert median is stand_ins.second
+
+
+def test_map_distance_is_the_median_over_the_frames_both_cover():
+    """Worked: hands at twice the body's rate (the stand-ins' spaces), body at 30 fps.  Left maps 60
+    hands frames apart (1 s) on frames 0-39; right 0 apart on 0-19, frames 20-59 not covered by the
+    other: the median of 40 values of 1 s and 20 of 0 s is 1 s.  Nothing shared: NaN."""
+    a, b = _pair(), _pair()
+    b["left"].hands_frame = a["left"].hands_frame + 60.0
+    b["left"].hands_frame[40:] = np.nan
+    b["right"].hands_frame = a["right"].hands_frame.copy()
+    b["right"].hands_frame[20:] = np.nan
+    assert R.map_distance_s(a, b) == pytest.approx(1.0)
+    b["right"].hands_frame[:20] += 600.0  # 10 s: 40 of 1 s, 20 of 10 s
+    assert R.map_distance_s(a, b) == pytest.approx(1.0)
+    b["left"].hands_frame[:] = np.nan
+    b["right"].hands_frame[:] = np.nan
+    assert np.isnan(R.map_distance_s(a, b))
+
+
+@pytest.mark.parametrize("blend", [0.0, 1.0])
+def test_a_second_opinion_that_moves_the_overlap_is_judged_on_its_own_frames(stand_ins, monkeypatch, blend):
+    """The positions-weighed pair lies 2 s from the first (120 hands frames at 60 fps): the frames
+    both cover cannot judge it, so each pair is judged along its own (here the stand-ins' table:
+    the same numbers).  Matching worse there (0.7 against 0.6) it is left out with a note and the
+    tempo-matched pair (2 hands frames late, 0.5) is kept as usual; matching better (0.1) it is kept
+    whole, never combined with maps 2 s away; with both moved and worse, the first pair stays."""
+    monkeypatch.setattr(D, "SECOND_OPINION_BLEND_S", blend)
+    monkeypatch.setattr(R, "replace", lambda obj, **kw: SimpleNamespace(**{**vars(obj), **kw}))  # stand-in sides
+    for r in stand_ins.second.values():
+        r.hands_frame = r.hands_frame + 119.0  # shift 1 + 119 = 120 hands frames: 2 s
+    first = _pair()
+    run = lambda log: R.position_second_opinion(first, SpliceOptions(), log, realign=stand_ins.realign,  # noqa: E731
+                                                finish=stand_ins.finish, since=0)
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.7, "tempo": 0.5})
+    log = Log()
+    out = run(log)
+    moved = [w for w in log.warnings if "placed the hands' material elsewhere" in w]
+    assert len(moved) == 1 and "(its time maps 2.0 s from the first's" in moved[0] and "weighed 30;" in moved[0]
+    assert "(mismatch 0.700 against 0.600): it is left out" in moved[0]
+    assert log.warnings[0] == "tempo run"  # the kept alignment's own notes, then the one left out
+    for s in ("left", "right"):
+        assert out[s].alignment is stand_ins.tempo[s].alignment
+        if blend:  # the first and the tempo-matched maps combined: between 0 and 2 frames late, never 120
+            off = out[s].hands_frame - 2.0 * np.arange(N)
+            assert np.nanmax(np.abs(off)) <= 2.0 + 1e-9
+
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.1, "tempo": 0.5})
+    log = Log()
+    out = run(log)
+    assert out is stand_ins.second  # whole: its own maps, its own notes
+    assert log.warnings[0] == "second run" and len(log.warnings) == 2
+    assert "(mismatch 0.100 against 0.600): it is kept whole" in log.warnings[1]
+
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.7, "tempo": 0.8})
+    for r in stand_ins.tempo.values():
+        r.hands_frame = r.hands_frame + 300.0
+    log = Log()
+    log.note("first run")
+    assert run(log) is first
+    assert len(log.warnings) == 3 and log.warnings[0] == "first run"
+    assert "tempo-matched" in log.warnings[2] and "(its time maps 5.0 s" in log.warnings[2]
+
+
+def test_own_mismatch_reads_the_frames_a_pair_covers(monkeypatch):
+    seen = []
+    monkeypatch.setattr(R, "map_mismatch", lambda sides, frames: seen.append(frames) or 0.25)
+    pair = _pair()
+    pair["left"].hands_frame[:10] = np.nan
+    pair["right"].hands_frame[50:] = np.nan
+    assert R.own_mismatch(pair) == 0.25 and seen[-1].tolist() == list(range(10, 50))
+    pair["right"].hands_frame[30] = np.nan  # two runs: not read
+    assert np.isnan(R.own_mismatch(pair))

@@ -1,21 +1,25 @@
 """Stage 6c, a second opinion: a noisy pair aligned again with the arms' positions weighed more.
 
-Where noise matching smoothed the pair (a second performance, a jittery solve), pass 1 weighs
-the arms' shoulder-relative positions by :data:`splicer.defaults.POSITION_WEIGHT_NOISY` beside
-D1's direction signs (:func:`splicer.stages.align.position_weights`).  Where the arm's noise
-leaves the signs little to go by (a slow gesture: the noise per frame is as large as the
-motion), a larger weight can be far better, and elsewhere a little worse.  So the pair is aligned
-again at :data:`splicer.defaults.POSITION_WEIGHT_RECHECK`, and (0.27.0) once more at that weight
-with each take's phase markers smoothed to the tempo the first maps show (:func:`tempo_markers`,
+Where noise matching smoothed the pair (a second performance, a jittery solve), pass 1 weighs the
+arms' shoulder-relative positions by :data:`splicer.defaults.POSITION_WEIGHT_NOISY` beside D1's
+direction signs (:func:`splicer.stages.align.position_weights`). Where the arm's noise leaves the
+signs little to go by (a slow gesture: the noise per frame is as large as the motion), a larger
+weight can be far better, and elsewhere a little worse. So the pair is aligned again at
+:data:`splicer.defaults.POSITION_WEIGHT_RECHECK`, and (0.27.0) once more at that weight with each
+take's phase markers smoothed to the tempo the first maps show (:func:`tempo_markers`,
 :mod:`splicer.align.tempo`: noise matching's smoothing blurs the faster take over more of the
 performance), their time maps made as the first's were (smoothed, refined by the wrist), and the
 pair of maps along which the hand moves relative to the forearm most alike in both takes
 (:func:`splicer.align.wrist.rate_mismatch`: a signal pass 1 does not read, which the arm's noise
-leaves clean) is kept, with a note.  Since 0.28.0 the kept pair's time maps are then combined frame
-by frame from all three (:func:`blend_maps`): each map weighed by that mismatch over the second
-around the frame (:func:`splicer.align.wrist.local_rate_mismatch`), as the alignment best along
-one stretch is not always the best along the next.  Measured on the ground-truth protocol
-(benchmarks/HISTORY.md, 0.18.0, 0.27.0 and 0.28.0).
+leaves clean) is kept, with a note. A second opinion that placed the hands' material elsewhere
+altogether (:data:`splicer.defaults.SECOND_OPINION_RELOCATED_S`, 0.29.1) cannot be judged on the
+frames both alignments cover (one of them is matched to the other's unrelated material there): each
+is judged along the frames it covers itself (:func:`own_mismatch`), and kept whole or left out, with
+a note. Since 0.28.0 the kept pair's time maps are then combined frame by frame from all three
+(:func:`blend_maps`): each map weighed by that mismatch over the second around the frame
+(:func:`splicer.align.wrist.local_rate_mismatch`), as the alignment best along one stretch is not
+always the best along the next. Measured on the ground-truth protocol (benchmarks/HISTORY.md,
+0.18.0, 0.27.0 and 0.28.0).
 """
 
 from __future__ import annotations
@@ -28,25 +32,27 @@ from .. import defaults as D
 from ..options import SpliceOptions
 from .log import Log
 
-__all__ = ["wants_second_opinion", "map_mismatch", "tempo_markers", "position_second_opinion", "blend_maps"]
+__all__ = ["wants_second_opinion", "map_mismatch", "map_distance_s", "own_mismatch", "tempo_markers", "position_second_opinion", "blend_maps"]
 
 
 def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
     """Whether the pair gets a second opinion: two sides whose pass 1 weighed positions by
     noise matching's weight (``position_weight="auto"``: no hand-only file, no optical markers),
-    whose hand-in-forearm motion compares (:func:`splicer.align.wrist.markers_compare`), whose takes may show one performance (the check against the hands played
-    backwards did not find the alignment no better than unrelated material: another weight
-    would not make it so), and the check not switched off (``POSITION_WEIGHT_RECHECK`` 0)."""
+    whose hand-in-forearm motion compares (:func:`splicer.align.wrist.markers_compare`), and the
+    check not switched off (``POSITION_WEIGHT_RECHECK`` 0).
+
+    A pair whose first alignment looked no better than unrelated material (the check against the
+    hands played backwards) gets one too since 0.29.1: the tempo-matched one found the
+    performance where the first had lost it (*all*, tuning seeds 19 and 21: 0.654 -> 0.204 s and
+    0.087 -> 0.024 s mean error); each alignment's confidence comes from its own check, so a pair
+    of two performances stays low confidence throughout whichever is kept."""
     from ..align.wrist import markers_compare
-    from .align import _unmatched
 
     if len(sides) != 2 or opts.position_weight != "auto" or not D.POSITION_WEIGHT_RECHECK > 0:
         return False
     for r in sides.values():
         p1, mk = r.alignment.pass1, r.markers
         if p1 is None or getattr(p1, "position_weight", None) != D.POSITION_WEIGHT_NOISY:
-            return False
-        if _unmatched(getattr(r.alignment, "evidence", None)):
             return False
         if mk.hand_only or mk.real or not markers_compare(mk.placed, mk.body.points, mk.hands.points):
             return False
@@ -65,6 +71,37 @@ def map_mismatch(sides: dict, frames: np.ndarray) -> float:
         vals.append(rate_mismatch(r.markers.body.points[frames], r.markers.hands.points, c, fps=sp.body_fps,
                                   smooth_s=D.WRIST_SMOOTH_S))
     return float(np.mean(vals)) if vals else float("nan")
+
+
+def map_distance_s(sides: dict, other: dict) -> float:
+    """How far apart two pairs of time maps lie: the median, over both sides' body frames that
+    both maps cover, of their distance in seconds of the hands take (at its normal speed: common
+    frames at the body's rate); NaN where they share no frame.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as NS
+    >>> sp = NS(body_fps=30.0, hands_to_common=lambda h: h / 4.0)  # hands at 120 fps
+    >>> side = lambda h: NS(hands_frame=np.asarray(h, dtype=float), markers=NS(spaces=sp))
+    >>> map_distance_s({"left": side([0, 4, 8, np.nan])}, {"left": side([120, 124, 128, 132])})
+    1.0
+    """
+    d = []
+    for s, r in sides.items():
+        sp = r.markers.spaces
+        a = np.asarray(r.hands_frame, dtype=np.float64)
+        b = np.asarray(other[s].hands_frame, dtype=np.float64)
+        ok = np.isfinite(a) & np.isfinite(b)
+        d.append(np.abs(sp.hands_to_common(a[ok]) - sp.hands_to_common(b[ok])) / sp.body_fps)
+    d = np.concatenate(d) if d else np.zeros(0)
+    return float(np.median(d)) if len(d) else float("nan")
+
+
+def own_mismatch(sides: dict) -> float:
+    """:func:`map_mismatch` along the body frames a pair of time maps covers itself (NaN when they
+    are not one run of at least 3 frames both sides cover)."""
+    frames = _common_frames(sides)
+    return map_mismatch(sides, frames) if frames is not None else float("nan")
 
 
 def tempo_markers(sides: dict) -> dict:
@@ -125,7 +162,10 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     -------
     dict of str -> SideResult
         ``sides`` itself when the pair does not qualify (:func:`wants_second_opinion`) or no
-        second opinion matches better.
+        second opinion matches better.  A second opinion that placed the hands' material
+        elsewhere (:func:`map_distance_s` over :data:`~splicer.defaults.SECOND_OPINION_RELOCATED_S`)
+        is compared along the frames each pair covers itself (:func:`own_mismatch`): kept whole
+        (not combined) when it matches better there, else left out.
     """
     if not wants_second_opinion(sides, opts):
         return sides
@@ -138,8 +178,40 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
         third = log.aside("tempo-matched")
         candidates.append(("tempo", finish(realign(heavier, third, markers=tempo_markers(sides)), third), third))
         log.tick("tempo-matched second opinion")
-    frames = _common_frames(sides, *(c[1] for c in candidates))
+    # another overlap altogether: the frames both cover cannot judge it (one of them is the other's
+    # unrelated material); each pair is judged along its own covered frames, the better kept whole
+    near, elsewhere, moved, first_own = [], [], [], None
+    for label, maps, lg in candidates:
+        apart = map_distance_s(sides, maps)
+        if not apart > D.SECOND_OPINION_RELOCATED_S:
+            near.append((label, maps, lg))
+            continue
+        first_own = own_mismatch(sides) if first_own is None else first_own
+        own = own_mismatch(maps)
+        how = f"weighed {D.POSITION_WEIGHT_RECHECK:g}{'' if label == 'positions' else ', its markers tempo-matched'}"
+        where = (f"placed the hands' material elsewhere (its time maps {apart:.1f} s from the first's, the median over "
+                 f"the body frames both cover)")
+        if own < first_own:
+            elsewhere.append((own, label, maps, lg, f"the arms' motion looked noisy, so the pair was also aligned with "
+                              f"the arms' positions {how}; that alignment {where}, and along the frames each covers the "
+                              f"hand moves relative to the forearm more alike in both takes along it (mismatch "
+                              f"{own:.3f} against {first_own:.3f}): it is kept whole"))
+        else:
+            moved.append(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions {how}; "
+                         f"that alignment {where}, and along the frames each covers the hand moves relative to the "
+                         f"forearm less alike in both takes along it (mismatch {own:.3f} against {first_own:.3f}): it "
+                         "is left out")
+    if elsewhere:
+        _, label, maps, lg, why = min(elsewhere, key=lambda x: x[0])
+        del log.warnings[since:]
+        log.warnings.extend(lg.warnings)
+        log.note(why)
+        return maps
+    candidates = near
+    frames = _common_frames(sides, *(c[1] for c in candidates)) if candidates else None
     if frames is None:
+        for msg in moved:
+            log.note(msg)
         return sides
     first = map_mismatch(sides, frames)
     scored = [(map_mismatch(maps, frames), label, maps, lg) for label, maps, lg in candidates]
@@ -156,6 +228,8 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
                  f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{how}; along that alignment the "
                  f"hand moves relative to the forearm more alike in both takes (mismatch {again:.3f} against "
                  f"{first:.3f}), and it is kept" + (" as the frame-by-frame combination's base" if blend else ""))
+    for msg in moved:  # after the kept alignment's own notes
+        log.note(msg)
     kept = maps if again < first else sides
     if not blend:
         return kept

@@ -121,6 +121,7 @@ def figure(result, *, dpi: int = 110) -> Figure:
     from .align.holds import hold_ranges
     from .align.passes import hold_ends, path_median, remap_constraints
     from .pipeline import LOW_CONFIDENCE_S
+    from .stages.report import low_confidence_ranges
 
     sides = list(result.sides.values())
     if not sides:
@@ -173,7 +174,7 @@ def figure(result, *, dpi: int = 110) -> Figure:
             ax.axvspans(gaps, _TAB_GRAY, 0.2, "no hands material")
         conf = s.alignment.confidence
         if conf is not None:
-            low = _ranges(np.isfinite(conf.est_error_s) & (conf.est_error_s > LOW_CONFIDENCE_S))
+            low = [(a - 0.5, b + 0.5) for a, b in low_confidence_ranges(conf.est_error_s, s.markers.spaces.body_fps)]
             if low:
                 ax.axvspans(low, _TAB_RED, 0.2, f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
         holds = hold_ranges(getattr(s.pass1, "held_rows", None))  # align.holds

@@ -108,10 +108,25 @@ def test_the_summary_states_estimates_past_the_risk_model_as_over_its_top_rung()
     conf = SimpleNamespace(confidence=np.ones(n), est_error_s=est, disagreement_s=None)
     side = SimpleNamespace(side="left", hands_frame=np.arange(n, dtype=float),
                            alignment=SimpleNamespace(covered=None, ends="fixed", confidence=conf),
-                           markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0)))
+                           markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=5.0)))  # 10 frames: 2 s apart
     log = Log()
     out = _coverage_report(side, n, log)
     assert out["low_confidence"] == [[5, 9], [20, 29]]
     assert log.warnings == ["left side: low confidence in 38% of body frames; worst 20-29 (over 0.4 s), "
                             "5-9 (~0.25 s); a pin (constraints file) near frame 24 would help most"]
     assert out["est_error_s"][20] == 54.25  # the report keeps the number
+
+
+def test_low_confidence_stretches_under_a_second_apart_are_one_range():
+    """Worked, at 10 fps (under 1 s apart: at most 9 frames between): stretches 9 frames apart join,
+    10 apart do not; an uncovered frame (NaN) is never inside a range, and a join does not cross it."""
+    from splicer.stages.report import low_confidence_ranges
+
+    est = np.zeros(60)
+    est[0:5] = est[14:20] = est[30:35] = 0.3  # 9 frames between the first two, 10 between the next
+    assert low_confidence_ranges(est, 10.0) == [[0, 19], [30, 34]]
+    est[10] = np.nan  # an uncovered frame inside the joined stretch splits it
+    assert low_confidence_ranges(est, 10.0) == [[0, 9], [11, 19], [30, 34]]
+    est[:] = 0.05
+    assert low_confidence_ranges(est, 10.0) == []
+    assert low_confidence_ranges(np.array([0.2, 0.0, 0.2]), 0.5) == [[0, 0], [2, 2]]  # under 1 frame: no join

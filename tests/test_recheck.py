@@ -313,3 +313,21 @@ def test_own_mismatch_reads_the_frames_a_pair_covers(monkeypatch):
     assert R.own_mismatch(pair) == 0.25 and seen[-1].tolist() == list(range(10, 50))
     pair["right"].hands_frame[30] = np.nan  # two runs: not read
     assert np.isnan(R.own_mismatch(pair))
+
+
+def test_a_second_opinion_on_other_frames_altogether_is_judged_on_its_own(stand_ins, monkeypatch):
+    """No body frame covered by both the first pair and a second opinion (the distance is NaN):
+    the second opinion lies elsewhere as surely as one seconds away, and is judged on its own frames."""
+    monkeypatch.setattr(R, "replace", lambda obj, **kw: SimpleNamespace(**{**vars(obj), **kw}))  # stand-in sides
+    first = _pair()
+    for r in first.values():
+        r.hands_frame[30:] = np.nan
+    for r in stand_ins.second.values():
+        r.hands_frame[:30] = np.nan
+    assert np.isnan(R.map_distance_s(first, stand_ins.second))
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.1, "tempo": 0.5})
+    log = Log()
+    out = R.position_second_opinion(first, SpliceOptions(), log, realign=stand_ins.realign, finish=stand_ins.finish,
+                                    since=0)
+    assert out is stand_ins.second
+    assert "on body frames the first's maps do not cover" in log.warnings[-1] and "kept whole" in log.warnings[-1]

@@ -2,23 +2,23 @@
 
 Where noise matching smoothed the pair (a second performance, a jittery solve), pass 1 weighs the
 arms' shoulder-relative positions by :data:`splicer.defaults.POSITION_WEIGHT_NOISY` beside D1's
-direction signs (:func:`splicer.stages.align.position_weights`). Where the arm's noise leaves the
+direction signs (:func:`splicer.stages.align.position_weights`).  Where the arm's noise leaves the
 signs little to go by (a slow gesture: the noise per frame is as large as the motion), a larger
-weight can be far better, and elsewhere a little worse. So the pair is aligned again at
+weight can be far better, and elsewhere a little worse.  So the pair is aligned again at
 :data:`splicer.defaults.POSITION_WEIGHT_RECHECK`, and (0.27.0) once more at that weight with each
 take's phase markers smoothed to the tempo the first maps show (:func:`tempo_markers`,
 :mod:`splicer.align.tempo`: noise matching's smoothing blurs the faster take over more of the
 performance), their time maps made as the first's were (smoothed, refined by the wrist), and the
 pair of maps along which the hand moves relative to the forearm most alike in both takes
 (:func:`splicer.align.wrist.rate_mismatch`: a signal pass 1 does not read, which the arm's noise
-leaves clean) is kept, with a note. A second opinion that placed the hands' material elsewhere
+leaves clean) is kept, with a note.  A second opinion that placed the hands' material elsewhere
 altogether (:data:`splicer.defaults.SECOND_OPINION_RELOCATED_S`, 0.29.1) cannot be judged on the
 frames both alignments cover (one of them is matched to the other's unrelated material there): each
 is judged along the frames it covers itself (:func:`own_mismatch`), and kept whole or left out, with
-a note. Since 0.28.0 the kept pair's time maps are then combined frame by frame from all three
+a note.  Since 0.28.0 the kept pair's time maps are then combined frame by frame from all three
 (:func:`blend_maps`): each map weighed by that mismatch over the second around the frame
 (:func:`splicer.align.wrist.local_rate_mismatch`), as the alignment best along one stretch is not
-always the best along the next. Measured on the ground-truth protocol (benchmarks/HISTORY.md,
+always the best along the next.  Measured on the ground-truth protocol (benchmarks/HISTORY.md,
 0.18.0, 0.27.0 and 0.28.0).
 """
 
@@ -32,7 +32,8 @@ from .. import defaults as D
 from ..options import SpliceOptions
 from .log import Log
 
-__all__ = ["wants_second_opinion", "map_mismatch", "map_distance_s", "own_mismatch", "tempo_markers", "position_second_opinion", "blend_maps"]
+__all__ = ["wants_second_opinion", "map_mismatch", "map_distance_s", "own_mismatch", "tempo_markers",
+           "position_second_opinion", "blend_maps"]
 
 
 def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
@@ -182,15 +183,16 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     # unrelated material); each pair is judged along its own covered frames, the better kept whole
     near, elsewhere, moved, first_own = [], [], [], None
     for label, maps, lg in candidates:
-        apart = map_distance_s(sides, maps)
-        if not apart > D.SECOND_OPINION_RELOCATED_S:
+        apart = map_distance_s(sides, maps)  # NaN: not one body frame in common
+        if apart <= D.SECOND_OPINION_RELOCATED_S:
             near.append((label, maps, lg))
             continue
         first_own = own_mismatch(sides) if first_own is None else first_own
         own = own_mismatch(maps)
         how = f"weighed {D.POSITION_WEIGHT_RECHECK:g}{'' if label == 'positions' else ', its markers tempo-matched'}"
-        where = (f"placed the hands' material elsewhere (its time maps {apart:.1f} s from the first's, the median over "
-                 f"the body frames both cover)")
+        where = ("placed the hands' material elsewhere (" + (
+            f"its time maps {apart:.1f} s from the first's, the median over the body frames both cover)"
+            if np.isfinite(apart) else "on body frames the first's maps do not cover)"))
         if own < first_own:
             elsewhere.append((own, label, maps, lg, f"the arms' motion looked noisy, so the pair was also aligned with "
                               f"the arms' positions {how}; that alignment {where}, and along the frames each covers the "

@@ -126,7 +126,7 @@ SECOND_OPINION_MIN_MOTION = 0.25
 #: better there, else left out (0.29.1).  Tuning seeds 0-39, *all*: two such pairs, the synthetic
 #: seed 20 (the second opinions mapped the body's first 29 s onto the hands' last 10 s; the
 #: common frames kept them, 22.6 s mean error with half of the wrong frames at full confidence;
-#: now left out, 0.55 s, 94 % flagged) and seed 24 (the first alignment 2.9 s off, the second
+#: now left out, 0.57 s, 94 % flagged) and seed 24 (the first alignment 2.9 s off, the second
 #: opinions right; now kept, 0.027 s); in the other 78 pairs the medians were at most 0.11 s
 #: (benchmarks/HISTORY.md, 0.29.1).
 SECOND_OPINION_RELOCATED_S = 1.0

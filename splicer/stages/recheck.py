@@ -193,16 +193,15 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
         where = ("placed the hands' material elsewhere (" + (
             f"its time maps {apart:.1f} s from the first's, the median over the body frames both cover)"
             if np.isfinite(apart) else "on body frames the first's maps do not cover)"))
-        if own < first_own:
-            elsewhere.append((own, label, maps, lg, f"the arms' motion looked noisy, so the pair was also aligned with "
-                              f"the arms' positions {how}; that alignment {where}, and along the frames each covers the "
-                              f"hand moves relative to the forearm more alike in both takes along it (mismatch "
-                              f"{own:.3f} against {first_own:.3f}): it is kept whole"))
+        better = own < first_own
+        why = (f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions {how}; that "
+               f"alignment {where}, and along the frames each covers the hand moves relative to the forearm "
+               f"{'more' if better else 'less'} alike in both takes along it (mismatch {own:.3f} against "
+               f"{first_own:.3f}): it is {'kept whole' if better else 'left out'}")
+        if better:
+            elsewhere.append((own, label, maps, lg, why))
         else:
-            moved.append(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions {how}; "
-                         f"that alignment {where}, and along the frames each covers the hand moves relative to the "
-                         f"forearm less alike in both takes along it (mismatch {own:.3f} against {first_own:.3f}): it "
-                         "is left out")
+            moved.append(why)
     if elsewhere:
         _, label, maps, lg, why = min(elsewhere, key=lambda x: x[0])
         del log.warnings[since:]

@@ -96,6 +96,16 @@ POSITION_WEIGHT_RECHECK = 30.0
 #: (0.125) / 0.033 (0.160) s, zeggs 0.030 (0.128) / 0.028 (0.107) / 0.026 (0.101) s, against 0.051
 #: (0.275) and 0.032 (0.144) without (benchmarks/HISTORY.md, 0.29.0).  0 switches it off.
 WRIST_SIGN_SCALE = 2.0
+#: Optical markers (C3D, TRC, CSV) on both takes, placed alike: their positions have no root
+#: heading to turn them by, so the position term holds the hand-in-forearm signs alone (three
+#: columns, :func:`splicer.align.costs.position_features` with ``coordinates=False``), weighed by
+#: this (D1 units per unit of the mean squared difference over the three columns; 0 switches it
+#: off).  Chosen on the markers' protocol (``benchmarks/eval_markers.py``), tuning seeds 0-9, both
+#: takes, among 1.25 / 2.5 / 5 (the signs among nine zero coordinates at weights 5 / 10 / 20):
+#: both C3D 0.306 -> 0.295 / 0.293 / 0.296 (seeds 0-4) and 0.343 -> 0.325 / 0.320 frames (5-9) on
+#: ZEGGS, 0.560 -> 0.520 / 0.526 / 0.567 and 0.533 -> 0.493 / 0.511 on the synthetic speaker
+#: (benchmarks/HISTORY.md, 0.31.0).
+OPTICAL_SIGN_WEIGHT = 1.25
 #: ... the hand-in-forearm direction's smoothing before its velocity is taken, seconds.
 WRIST_SIGN_SMOOTH_S = 0.05
 #: ... and the width of each sign's ramp, as a share of that component's RMS velocity.

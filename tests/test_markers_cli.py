@@ -105,6 +105,9 @@ def test_splice_with_hands_markers(session):
     assert side["markers"]["hands"]["path"].endswith("hands.c3d") and "body" not in side["markers"]
     # passes="auto": pass 1 alone on optical markers (defaults.PASSES); "both" runs pass 2 on them
     assert all(v.alignment.pass1 is not None and v.alignment.pass2 is None for v in r.sides.values())
+    # optical against virtual markers: placed differently, so no hand-in-forearm signs, and no coordinates
+    # (no root heading): no position term (defaults.OPTICAL_SIGN_WEIGHT needs both takes optical)
+    assert all(v.alignment.pass1.position_weight == 0.0 and not v.alignment.pass1.wrist_signs for v in r.sides.values())
     both = splice(d / "body.bvh", d / "hands.bvh", hands_markers=d / "hands.c3d", passes="both")
     assert all(v.alignment.pass2 is not None for v in both.sides.values())
     plain = splice(d / "body.bvh", d / "hands.bvh")  # the BVHs' virtual markers keep pass 2
@@ -232,6 +235,9 @@ def test_noisy_optical_markers_leave_the_wrist_refinement_out(session, monkeypat
     d, sep, hands, body = session
     kw = dict(hands_markers=d / "hands.c3d", body_markers=d / "body.c3d")
     r = splice(d / "body.bvh", d / "hands.bvh", **kw)
+    # both takes optical, placed alike: pass 1's position term is the hand-in-forearm signs alone (0.31.0)
+    assert all(v.alignment.pass1.position_weight == D.OPTICAL_SIGN_WEIGHT and v.alignment.pass1.wrist_signs
+               for v in r.sides.values())
     side = r.report.to_dict()["sides"]["left"]
     noise = side["markers"]["body"]["noise"]
     assert set(noise) == {"p1", "p2", "p3", "p4", "shoulder"}

@@ -220,3 +220,84 @@ def test_the_arms_resampled_for_a_coarser_level_drop_the_signs():
     arms = [P.Arm(body, hands, position_weight=3.0, wrist_signs=True)]
     coarse = P._resampled(arms, 10.0)
     assert not coarse[0].wrist_signs and coarse[0].position_weight == 3.0 and coarse[0].body.fps == 10.0
+
+
+# ---- optical markers: the signs alone (0.31.0) ----
+
+def test_position_features_without_coordinates_are_the_signs_alone():
+    t = np.arange(90) / 30.0
+    mk = _turning(0.4 * np.sin(2 * np.pi * 0.7 * t), shoulder_wave=0.1)
+    only = position_features(mk, wrist_signs=True, coordinates=False)
+    assert only.shape == (90, 3) and only.flags.c_contiguous
+    np.testing.assert_array_equal(only, position_features(mk, wrist_signs=True)[:, 9:])
+    np.testing.assert_array_equal(phase_features(mk, position=True, wrist_signs=True, coordinates=False).position, only)
+    with pytest.raises(ValueError, match="need the hand-in-forearm signs"):
+        position_features(mk, coordinates=False)
+
+
+def test_the_signs_alone_against_the_slow_reference():
+    """Weight w on the three sign columns alone adds w x their mean squared difference: the same as
+    4w on the twelve columns with the nine coordinates zeroed (how the weight was chosen)."""
+    t = np.arange(40) / 30.0
+    b = phase_features(_turning(0.4 * np.sin(5 * t), shoulder_wave=0.1), position=True, wrist_signs=True,
+                       coordinates=False)
+    h = phase_features(_turning(0.3 * np.sin(4 * t + 0.5), shoulder_wave=0.07), position=True, wrist_signs=True,
+                       coordinates=False)
+    band = make_band(40, 40, 8.0)
+    w = D.OPTICAL_SIGN_WEIGHT
+    with_term, without = d1_cost(b, h, position_weight=w)(band, 0, 40), d1_cost(b, h)(band, 0, 40)
+    pad = lambda f: type(f)(**{**f.__dict__, "position": np.ascontiguousarray(  # noqa: E731
+        np.concatenate([np.zeros((len(f.position), 9)), f.position], axis=1))})
+    twelve = d1_cost(pad(b), pad(h), position_weight=4 * w)(band, 0, 40)
+    for i in range(40):
+        for c in range(band.hi[i] - band.lo[i] + 1):
+            j = band.lo[i] + c
+            want = w * np.sum((b.position[i] - h.position[j]) ** 2) / 3.0
+            assert with_term[i, c] - without[i, c] == pytest.approx(want, rel=1e-9, abs=1e-12)
+            assert twelve[i, c] == pytest.approx(with_term[i, c], rel=1e-12, abs=1e-12)
+
+
+def test_pass1_with_the_signs_alone():
+    import splicer.align.passes as P
+
+    body, hands = _pair()
+    p = P.pass1(body, hands, width=60.0, position_weight=1.25, wrist_signs=True, coordinates=False, ends="open")
+    assert p.wrist_signs and p.position_weight == 1.25
+    # the locating level has no signs, so no position term at all: D1 alone there
+    d1_only = P.pass1(body, hands, width=60.0, ends="open")
+    assert p.located.uncovered_cost == pytest.approx(d1_only.located.uncovered_cost)
+    np.testing.assert_array_equal(p.located.path, d1_only.located.path)
+    with pytest.raises(ValueError, match="needs the hand-in-forearm signs"):
+        P.pass1(body, hands, width=60.0, position_weight=1.25, coordinates=False)
+    # an arm without coordinates at a coarser rate: no term (nothing left to compare)
+    arm = P.Arm(body, hands, position_weight=1.25, wrist_signs=True, coordinates=False)
+    assert arm.coarser(10.0).position_weight == 0.0
+    assert P.Arm(body, hands, position_weight=3.0, wrist_signs=True).coarser(10.0).position_weight == 3.0
+
+
+def test_position_weights_of_optical_markers():
+    from splicer.options import SpliceOptions
+    from splicer.stages.align import position_coordinates, position_weights
+
+    t = np.arange(60) / 30.0
+    moving = _turning(0.4 * np.sin(2 * np.pi * t)).points
+
+    def side(placed, real=True, hand_only=False):
+        return SimpleNamespace(placed=placed, real={"hands": {}} if real else {}, hand_only=hand_only,
+                               body=SimpleNamespace(points=moving), hands=SimpleNamespace(points=moving))
+
+    auto, three = SpliceOptions(), SpliceOptions(position_weight=3.0)
+    both = side(("optical", "optical"))
+    assert position_weights(auto, both, False) == (D.OPTICAL_SIGN_WEIGHT, D.OPTICAL_SIGN_WEIGHT)
+    assert position_weights(auto, both, True) == (D.OPTICAL_SIGN_WEIGHT, D.OPTICAL_SIGN_WEIGHT)
+    assert position_weights(three, both, False) == (3.0, 3.0)  # a number weighs the signs
+    assert not position_coordinates(both)
+    # optical hands against the body's virtual markers: placed differently, the signs do not compare
+    assert position_weights(auto, side(("optical", STYLOID)), False) == (0.0, 0.0)
+    assert position_weights(three, side((STYLOID, "optical")), False) == (0.0, 0.0)
+    # virtual markers as before
+    virtual = side((ANATOMICAL, ANATOMICAL), real=False)
+    assert position_coordinates(virtual)
+    assert position_weights(auto, virtual, False) == (D.POSITION_WEIGHT, 0.0)
+    assert position_weights(auto, virtual, True) == (D.POSITION_WEIGHT_NOISY, D.POSITION_WEIGHT_NOISY)
+    assert position_weights(auto, side((ANATOMICAL, ANATOMICAL), real=False, hand_only=True), False) == (0.0, 0.0)

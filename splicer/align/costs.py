@@ -153,7 +153,7 @@ def _smooth_derivatives(x: np.ndarray, fps: float, smooth_s: float) -> tuple[np.
 POSITION_MIN_SPREAD = 0.1
 
 
-def position_features(markers: Markers, *, wrist_signs: bool = False) -> np.ndarray:
+def position_features(markers: Markers, *, wrist_signs: bool = False, coordinates: bool = True) -> np.ndarray:
     """The position term's inputs: shoulder-relative ``p1, p2, p4``, heading removed, normalised.
 
     Each frame's wrist and hand markers relative to the shoulder are turned about the up axis
@@ -172,12 +172,24 @@ def position_features(markers: Markers, *, wrist_signs: bool = False) -> np.ndar
     markers : Markers
     wrist_signs : bool
         Append the hand-in-forearm signs (both takes of a pair alike: the term compares columns).
+    coordinates : bool
+        False: the signs alone (``wrist_signs`` needed), for markers without a root heading to
+        turn the coordinates by (optical markers: :data:`splicer.defaults.OPTICAL_SIGN_WEIGHT`).
 
     Returns
     -------
-    np.ndarray [shape=(T, 9) or (T, 12), dtype=float64]
+    np.ndarray [shape=(T, 9), (T, 12) or (T, 3), dtype=float64]
         Unitless; zeros where the take does not move at all (the signs' columns too).
+
+    Raises
+    ------
+    ValueError
+        ``coordinates=False`` without the signs (nothing left to compare).
     """
+    if not coordinates:
+        if not (wrist_signs and D.WRIST_SIGN_SCALE > 0):
+            raise ValueError("position features without coordinates need the hand-in-forearm signs")
+        return np.ascontiguousarray(D.WRIST_SIGN_SCALE * wrist_sign_features(markers))
     rel = markers.relative()[:, [0, 1, 3]]
     a, b = horizontal_axes(markers.up)
     h = np.asarray(markers.heading, dtype=np.float64)[:, None]
@@ -259,7 +271,8 @@ def wrist_sign_features(markers: Markers, *, smooth_s: float | None = None,
 
 
 def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: float = DEAD_ZONE,
-                   sign_ramp: float = SIGN_RAMP, position: bool = False, wrist_signs: bool = False) -> PhaseFeatures:
+                   sign_ramp: float = SIGN_RAMP, position: bool = False, wrist_signs: bool = False,
+                   coordinates: bool = True) -> PhaseFeatures:
     """Prepare D1's inputs for one motion.
 
     Parameters
@@ -286,6 +299,9 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
     wrist_signs : bool
         With ``position``: the position term reads the hand-in-forearm signs too
         (:func:`wrist_sign_features`).
+    coordinates : bool
+        With ``position``: False leaves the coordinates out, the signs alone
+        (:func:`position_features`).
     """
     rel = markers.relative()
     if markers.blur is not None:  # tempo-matched smoothing first (splicer.align.tempo)
@@ -299,7 +315,7 @@ def phase_features(markers: Markers, *, smooth_s: float = SMOOTH_S, dead_zone: f
         vel, acc, dead_zone * rms_v, dead_zone * rms_a, win,
         np.array(markers.heading, dtype=np.float64), markers.up,  # a writable copy: one compiled D1 kernel, not two
         sign_ramp * rms_v, sign_ramp * rms_a,
-        position_features(markers, wrist_signs=wrist_signs) if position else None,
+        position_features(markers, wrist_signs=wrist_signs, coordinates=coordinates) if position else None,
     )
 
 

@@ -131,6 +131,10 @@ class Arm:
         Its position term reads the hand-in-forearm signs too
         (:func:`splicer.align.costs.wrist_sign_features`), at the body's rate only: an arm
         resampled for a coarser level drops them.
+    coordinates : bool
+        Its position term reads the positions' coordinates (False: the signs alone, for markers
+        without a root heading: optical ones).  An arm without coordinates whose signs are
+        dropped (at a coarser rate) has no position term there.
     """
 
     body: Markers
@@ -138,11 +142,20 @@ class Arm:
     smooth_s: float = SMOOTH_S
     position_weight: float = 0.0
     wrist_signs: bool = False
+    coordinates: bool = True
+
+    def coarser(self, fps: float) -> "Arm":
+        """This arm at a coarser rate ``fps``, without the hand-in-forearm signs (the turns of a hand
+        in its forearm blur into each other at 1-10 fps; at the locating rates the signs moved one
+        tuning run's overlap by 3 s: benchmarks/HISTORY.md, 0.29.0), so without a position term
+        when it read the signs alone."""
+        return Arm(resample_markers(self.body, fps), resample_markers(self.hands, fps), self.smooth_s,
+                   self.position_weight if self.coordinates else 0.0)
 
 
-def _arms(body, hands, smooth_s, position_weight, others, wrist_signs=False) -> list:
+def _arms(body, hands, smooth_s, position_weight, others, wrist_signs=False, coordinates=True) -> list:
     """Every arm of a pass 1, the first one given as ``pass1``'s own arguments; checked to share frames."""
-    arms = [Arm(body, hands, smooth_s, position_weight, wrist_signs)] + list(others)
+    arms = [Arm(body, hands, smooth_s, position_weight, wrist_signs, coordinates)] + list(others)
     for a in arms[1:]:
         if not isinstance(a, Arm):
             raise TypeError(f"others must hold Arm objects, got {type(a).__name__}")
@@ -165,17 +178,15 @@ def _blurred(arms: list) -> bool:
 
 
 def _resampled(arms: list, fps: float) -> list:
-    """The arms at a coarser rate, without the hand-in-forearm signs (the turns of a hand in its
-    forearm blur into each other at 1-10 fps; at the locating rates the signs moved one tuning
-    run's overlap by 3 s: benchmarks/HISTORY.md, 0.29.0)."""
-    return [Arm(resample_markers(a.body, fps), resample_markers(a.hands, fps), a.smooth_s, a.position_weight)
-            for a in arms]
+    """The arms at a coarser rate (:meth:`Arm.coarser`)."""
+    return [a.coarser(fps) for a in arms]
 
 
 def _arm_features(arms: list, dead_zone: float, sign_ramp: float) -> list:
     """Each arm's (body, hands) phase features."""
     return [tuple(phase_features(x, smooth_s=a.smooth_s, dead_zone=dead_zone, sign_ramp=sign_ramp,
-                                 position=a.position_weight > 0, wrist_signs=a.wrist_signs)
+                                 position=a.position_weight > 0, wrist_signs=a.wrist_signs,
+                                 coordinates=a.coordinates)
                   for x in (a.body, a.hands)) for a in arms]
 
 
@@ -297,7 +308,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
           horizontal_weight: float | None = None, guide: np.ndarray | None = None,
           cache_bytes: int = CACHE_BYTES, position_weight: float = 0.0, others=(),
-          held_rows=None, wrist_signs: bool = False) -> PassResult:
+          held_rows=None, wrist_signs: bool = False, coordinates: bool = True) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -376,6 +387,11 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         Beyond the paper: with ``position_weight > 0``, the position term reads the hand's
         turning in the forearm's frame too (:func:`splicer.align.costs.wrist_sign_features`),
         in the DTW at the body's rate (not at a coarser rate).  ``others`` say it per arm.
+    coordinates : bool
+        Beyond the paper: False leaves the positions' coordinates out of the position term, the
+        hand-in-forearm signs alone (``wrist_signs`` needed; optical markers have no root heading
+        to turn coordinates by); then no position term at the coarser rates.  ``others`` say it
+        per arm.
 
     Returns
     -------
@@ -390,7 +406,9 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
     """
     if ends not in ("fixed", "open"):
         raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
-    arms = _arms(body, hands, smooth_s, position_weight, others, wrist_signs)
+    if not coordinates and not (wrist_signs and D.WRIST_SIGN_SCALE > 0) and position_weight > 0:
+        raise ValueError("a position term without coordinates needs the hand-in-forearm signs (wrist_signs)")
+    arms = _arms(body, hands, smooth_s, position_weight, others, wrist_signs, coordinates)
     if ends == "open":
         return _pass1_open(arms, width=width, constraints=constraints,
                            dead_zone=dead_zone, sign_ramp=sign_ramp, theta=theta,

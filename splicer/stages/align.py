@@ -139,11 +139,20 @@ def position_weights(opts: SpliceOptions, markers: SideMarkers, noisy: bool) -> 
     the penalty was taken from (README, *How it works*).  0 for both where positions do not
     compare: a hand-only hands file (measured from the capture's origin, against the body's
     root: on tuning seeds 0-2 of the paper's protocol a wrist-rooted file went from 0.74 to 7.5
-    frames with the term) or real optical markers (no root heading to turn them by).
+    frames with the term).  Optical markers (``markers.real``) have no root heading to turn
+    the coordinates by: their term holds the hand-in-forearm signs alone
+    (:func:`position_coordinates`), weighed :data:`splicer.defaults.OPTICAL_SIGN_WEIGHT` (or
+    ``opts.position_weight`` when a number) where the signs compare (:func:`wrist_signs_compare`:
+    both takes optical, placed alike), else 0 (0.31.0; before, 0 throughout).
     """
+    if markers.real:  # no root heading: the signs alone, where they compare
+        if not wrist_signs_compare(markers):
+            return 0.0, 0.0
+        w = D.OPTICAL_SIGN_WEIGHT if opts.position_weight == "auto" else float(opts.position_weight)
+        return w, w
     if opts.position_weight != "auto":
         return float(opts.position_weight), float(opts.position_weight)
-    if markers.hand_only or markers.real:
+    if markers.hand_only:
         return 0.0, 0.0
     if noisy:
         return D.POSITION_WEIGHT_NOISY, D.POSITION_WEIGHT_NOISY
@@ -202,12 +211,19 @@ def _no_evidence_error_s(hands_frames: int, fps: float) -> float:
 
 
 def _other_arms(extra: list, open_ends: bool) -> tuple:
-    """Pass 1's other arms (``(SideMarkers, smooth_s, fixed-ends weight, open-ends weight, wrist signs)``
-    each) as :class:`splicer.align.passes.Arm`, with the position weight of the end condition."""
+    """Pass 1's other arms (``(SideMarkers, smooth_s, fixed-ends weight, open-ends weight, wrist signs,
+    coordinates)`` each) as :class:`splicer.align.passes.Arm`, with the position weight of the end condition."""
     from ..align.passes import Arm
 
-    return tuple(Arm(o.body, o.hands, osm, w_open if open_ends else w_fixed, wrist)
-                 for o, osm, w_fixed, w_open, wrist in extra)
+    return tuple(Arm(o.body, o.hands, osm, w_open if open_ends else w_fixed, wrist, coords)
+                 for o, osm, w_fixed, w_open, wrist, coords in extra)
+
+
+def position_coordinates(markers: SideMarkers) -> bool:
+    """Whether pass 1's position term reads the positions' coordinates (shoulder-relative, turned by
+    the root's heading: :func:`splicer.align.costs.position_features`): not with optical markers,
+    which have no root heading; their term is the hand-in-forearm signs alone (:func:`position_weights`)."""
+    return not markers.real
 
 
 def wrist_signs_compare(markers: SideMarkers) -> bool:
@@ -299,12 +315,12 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
     if noisy is None:
         noisy = smooth_s > opts.smooth_s
     pos_fixed, pos_open = position_weights(opts, markers, noisy)
-    wrist = wrist_signs_compare(markers)
+    wrist, coords = wrist_signs_compare(markers), position_coordinates(markers)
     extra = []
     for k, o in enumerate(others):
         o_fixed, o_open = position_weights(opts, o, noisy)
         osm = other_smooth[k] if k < len(other_smooth) else smooth_s
-        extra.append((o, osm, o_fixed, o_open, wrist_signs_compare(o)))
+        extra.append((o, osm, o_fixed, o_open, wrist_signs_compare(o), position_coordinates(o)))
 
     # a second performance's noise (not optical markers' measured noise: measured worse there)
     soft = noisy and not markers.noise and not any(o.noise for o in others)
@@ -330,6 +346,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
                   coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
                   guide=None if open_ends else guide_path, others=arms, held_rows=held, wrist_signs=wrist,
+                  coordinates=coords,
                   progress=lambda f: log.progress(f"{label}: {stage}", f))
         return p, w1, w2, cons
 
@@ -378,8 +395,9 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                 log.note(f"{who}: {msg}")
             log.tick("pass1")
             log.progress(f"{label}: backwards check", 0.0)
-            evidence = _evidence(bmk, hmk, extra, used, smooth_s, pos_open if used == "open" else pos_fixed, opts,
-                                 log, who, label)
+            # the check has no hand-in-forearm signs: no position term where it would read them alone
+            evidence = _evidence(bmk, hmk, extra, used, smooth_s,
+                                 (pos_open if used == "open" else pos_fixed) if coords else 0.0, opts, log, who, label)
             log.tick("backwards check")
             if _unmatched(evidence):
                 log.note(f"{who}: the takes may not show the same performance: the alignment costs "

@@ -111,8 +111,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pass 1 weighs where the wrists and hands are (shoulder-relative, normalised per take) "
                         f"beside D1's direction signs: auto (default: {D.POSITION_WEIGHT_NOISY:g} where a noisier "
                         f"take's markers are smoothed, else {D.POSITION_WEIGHT:g} with fixed ends and 0 open-ended; "
-                        f"0 against hand-only files; optical markers on both takes: the hand's turns in the forearm "
-                        f"alone, {D.OPTICAL_SIGN_WEIGHT:g}), a number W, or 0 (D1 alone, the paper)")
+                        f"0 against hand-only files; optical markers: the hand's turns in the forearm alone, "
+                        f"{D.OPTICAL_SIGN_WEIGHT:g}), a number W, or 0 (D1 alone, the paper)")
     p.add_argument("--pass1-arms", choices=("both", "each"), default=D.PASS1_ARMS,
                    help="both (default): one pass 1 weighs both arms, as both hands of the hands take share its "
                         "clock (pass 2 stays per side); each: every side its own pass 1 (the paper)")

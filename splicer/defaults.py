@@ -96,7 +96,8 @@ POSITION_WEIGHT_RECHECK = 30.0
 #: (0.125) / 0.033 (0.160) s, zeggs 0.030 (0.128) / 0.028 (0.107) / 0.026 (0.101) s, against 0.051
 #: (0.275) and 0.032 (0.144) without (benchmarks/HISTORY.md, 0.29.0).  0 switches it off.
 WRIST_SIGN_SCALE = 2.0
-#: Optical markers (C3D, TRC, CSV) on both takes, placed alike: their positions have no root
+#: Optical markers (C3D, TRC, CSV) against optical markers or virtual ones on the styloids
+#: (:func:`splicer.stages.align.wrist_signs_compare`): their positions have no root
 #: heading to turn them by, so the position term holds the hand-in-forearm signs alone (three
 #: columns, :func:`splicer.align.costs.position_features` with ``coordinates=False``), weighed by
 #: this (D1 units per unit of the mean squared difference over the three columns; 0 switches it

@@ -35,7 +35,7 @@ class SpliceOptions:
     temperature_s: float = D.PASS1_TEMPERATURE_S  # pass 1: a path costing 1 D1 unit more per frame for this long is e times less likely; 0 = the best path alone
     posterior_radius_s: float = D.POSTERIOR_RADIUS_S  # pass 1: hands time each side of the best path weighed, seconds
     noise_ratio: float | str | None = "auto"  # "auto": when one take's signs flip over NOISE_TRIGGER times as often, smooth both until within NOISE_RATIO; a number R: whenever over R, until within R; None: off
-    position_weight: float | str = "auto"  # pass 1 adds this many D1 units per unit of the position term; "auto": POSITION_WEIGHT_NOISY where noise matching smoothed the pair, else POSITION_WEIGHT with fixed ends and 0 open-ended, OPTICAL_SIGN_WEIGHT on the hand-in-forearm signs alone for optical markers on both takes (stages.align.position_weights); 0: D1 alone (the paper)
+    position_weight: float | str = "auto"  # pass 1 adds this many D1 units per unit of the position term; "auto": POSITION_WEIGHT_NOISY where noise matching smoothed the pair, else POSITION_WEIGHT with fixed ends and 0 open-ended, OPTICAL_SIGN_WEIGHT on the hand-in-forearm signs alone for optical markers (stages.align.position_weights); 0: D1 alone (the paper)
     pass1_arms: str = D.PASS1_ARMS  # "both": one pass 1 weighs both arms (both hands of one hands take share its clock; stages.align.align_pair); "each": each side's own pass 1 (the paper)
     timemap_sigma_s: float = D.TIMEMAP_SIGMA_S  # time-map smoothing, seconds
     tempo_var_per_s: float = D.TEMPO_VAR_PER_S  # the time map weighed by the expected path's spread, the tempo (hands s per body s) drifting by this variance per second (stages.transfer.trend_time_maps); 0: the smoothed map alone

@@ -105,9 +105,10 @@ def test_splice_with_hands_markers(session):
     assert side["markers"]["hands"]["path"].endswith("hands.c3d") and "body" not in side["markers"]
     # passes="auto": pass 1 alone on optical markers (defaults.PASSES); "both" runs pass 2 on them
     assert all(v.alignment.pass1 is not None and v.alignment.pass2 is None for v in r.sides.values())
-    # optical against virtual markers: placed differently, so no hand-in-forearm signs, and no coordinates
-    # (no root heading): no position term (defaults.OPTICAL_SIGN_WEIGHT needs both takes optical)
-    assert all(v.alignment.pass1.position_weight == 0.0 and not v.alignment.pass1.wrist_signs for v in r.sides.values())
+    # optical markers have no root heading: pass 1's position term is the hand-in-forearm signs alone, the
+    # body's virtual markers put on the styloids as the optical ones are (0.31.0)
+    assert all(v.alignment.pass1.position_weight == D.OPTICAL_SIGN_WEIGHT and v.alignment.pass1.wrist_signs
+               for v in r.sides.values())
     both = splice(d / "body.bvh", d / "hands.bvh", hands_markers=d / "hands.c3d", passes="both")
     assert all(v.alignment.pass2 is not None for v in both.sides.values())
     plain = splice(d / "body.bvh", d / "hands.bvh")  # the BVHs' virtual markers keep pass 2
@@ -125,6 +126,9 @@ def test_splice_with_hands_markers(session):
     rigid = splice(d / "body.bvh", d / "hands.bvh", hands_markers=d / "hands.c3d",
                    config=SpliceConfig(markers={"hands": {"derive": "rigid"}}))  # its wrist markers ride on the hand
     assert all(v.markers.placed == (ANATOMICAL, "optical") for v in rigid.sides.values())
+    # placed differently (the body's wrist markers across the palm): no signs, and no coordinates, so no term
+    assert all(v.alignment.pass1.position_weight == 0.0 and not v.alignment.pass1.wrist_signs
+               for v in rigid.sides.values())
     body_optical = splice(d / "body.bvh", d / "hands.bvh", body_markers=d / "body.c3d")
     assert all(v.markers.placed == ("optical", STYLOID) for v in body_optical.sides.values())
     assert all(v.extra.get("wrist_rounds", 1) == 1 for v in body_optical.sides.values())  # 1-2 mm of noise

@@ -288,12 +288,13 @@ def test_position_weight_needs_position_features(rng):
 def test_position_weight_policy():
     """auto: (3, 0) on a clean pair (fixed ends, open ends), (10, 10) where noise matching
     smoothed it (either side: one decision for the pair), (0, 0) for a hand-only file or optical
-    markers against virtual ones (placed differently: the hand-in-forearm signs, the only term they
-    have, do not compare; both optical: tests/test_wrist_signs.py); a number is used for both."""
+    markers against virtual ones across the palm (placed differently: the hand-in-forearm signs, the
+    only term they have, do not compare; the others: tests/test_wrist_signs.py); a number is used for both."""
     from types import SimpleNamespace
 
     from splicer import defaults as D
     from splicer.options import SpliceOptions
+    from splicer.align.wrist import ANATOMICAL
     from splicer.stages.align import position_weights
 
     arm = SimpleNamespace(hand_only=False, real={})
@@ -301,7 +302,7 @@ def test_position_weight_policy():
     assert position_weights(auto, arm, False) == (D.POSITION_WEIGHT, 0.0) == (3.0, 0.0)
     assert position_weights(auto, arm, True) == (D.POSITION_WEIGHT_NOISY,) * 2 == (10.0, 10.0)
     assert position_weights(auto, SimpleNamespace(hand_only=True, real={}), False) == (0.0, 0.0)
-    optical = SimpleNamespace(hand_only=False, real={"hands": {}}, placed=("styloid", "optical"))
+    optical = SimpleNamespace(hand_only=False, real={"hands": {}}, placed=(ANATOMICAL, "optical"))
     assert position_weights(auto, optical, True) == (0.0, 0.0)
     assert position_weights(SpliceOptions(position_weight=7.5), optical, True) == (0.0, 0.0)
     assert position_weights(SpliceOptions(position_weight=0), arm, True) == (0.0, 0.0)

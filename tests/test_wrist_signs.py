@@ -160,6 +160,8 @@ def test_wrist_signs_compare(monkeypatch):
     assert wrist_signs_compare(side((STYLOID, STYLOID)))
     # placed differently (the refinement turns one onto the other; the signs are components, so not here)
     assert not wrist_signs_compare(side(("optical", ANATOMICAL)))
+    # ... but virtual wrist markers on the styloids are placed as optical ones are (0.31.0)
+    assert wrist_signs_compare(side((STYLOID, "optical"))) and wrist_signs_compare(side(("optical", STYLOID)))
     assert not wrist_signs_compare(side((ANATOMICAL, STYLOID)))
     assert not wrist_signs_compare(side((ANATOMICAL, ANATOMICAL), hands=still))  # a hand that never turns
     gap = moving.copy()
@@ -292,9 +294,12 @@ def test_position_weights_of_optical_markers():
     assert position_weights(auto, both, True) == (D.OPTICAL_SIGN_WEIGHT, D.OPTICAL_SIGN_WEIGHT)
     assert position_weights(three, both, False) == (3.0, 3.0)  # a number weighs the signs
     assert not position_coordinates(both)
-    # optical hands against the body's virtual markers: placed differently, the signs do not compare
-    assert position_weights(auto, side(("optical", STYLOID)), False) == (0.0, 0.0)
-    assert position_weights(three, side((STYLOID, "optical")), False) == (0.0, 0.0)
+    # optical hands against the body's virtual markers on the styloids (placed as optical ones are): the signs
+    assert position_weights(auto, side((STYLOID, "optical")), False) == (D.OPTICAL_SIGN_WEIGHT,) * 2
+    assert position_weights(three, side(("optical", STYLOID)), False) == (3.0, 3.0)
+    # ... across the palm: placed differently, the signs do not compare, and there is no other term
+    assert position_weights(auto, side(("optical", ANATOMICAL)), False) == (0.0, 0.0)
+    assert position_weights(three, side((ANATOMICAL, "optical")), False) == (0.0, 0.0)
     # virtual markers as before
     virtual = side((ANATOMICAL, ANATOMICAL), real=False)
     assert position_coordinates(virtual)

@@ -27,13 +27,13 @@ def _swinging_hand():
     return p
 
 
-def _side(weight=D.POSITION_WEIGHT_NOISY, shift=0.0, ratio=0.5, **mk):
+def _side(weight=D.POSITION_WEIGHT_NOISY, shift=0.0, ratio=0.5, ends="fixed", **mk):
     pts = _swinging_hand()
     markers = dict(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0), hand_only=False, real={},
                    body=SimpleNamespace(points=pts), hands=SimpleNamespace(points=pts), placed=(FULL, FULL))
     markers.update(mk)
     return SimpleNamespace(alignment=SimpleNamespace(pass1=SimpleNamespace(position_weight=weight),
-                                                     evidence=SimpleNamespace(ratio=ratio)),
+                                                     evidence=SimpleNamespace(ratio=ratio), ends=ends),
                            markers=SimpleNamespace(**markers), hands_frame=2.0 * np.arange(N) + shift)
 
 
@@ -50,22 +50,26 @@ def stand_ins(monkeypatch):
     tests below switch it on)."""
     monkeypatch.setattr(D, "SECOND_OPINION_BLEND_S", 0.0)
     calls, mismatch = [], {}
-    second, tempo = _pair(shift=1.0), _pair(shift=2.0)
+    second, tempo, shorter = _pair(shift=1.0), _pair(shift=2.0), _pair(shift=0.5)
+    for r in shorter.values():  # its overlap ends 20 frames earlier (the first's covers every frame)
+        r.hands_frame[-20:] = np.nan
     blurred = {"left": "blurred", "right": "blurred"}
 
     def realign(opts, log, markers=None):
         assert markers is None or markers is blurred
-        calls.append((opts.position_weight, markers is not None))
-        log.note("tempo run" if markers is not None else "second run")
-        return "tempo" if markers is not None else "aligned"
+        short = opts.uncovered_quantile == D.SHORTER_OPINION_QUANTILE
+        calls.append((opts.position_weight, markers is not None) + (("shorter",) if short else ()))
+        log.note("tempo run" if markers is not None else "shorter run" if short else "second run")
+        return "tempo" if markers is not None else "shorter" if short else "aligned"
 
     def finish(aligned, log):
-        return tempo if aligned == "tempo" else second
+        return {"tempo": tempo, "shorter": shorter}.get(aligned, second)
 
     monkeypatch.setattr(R, "map_mismatch", lambda sides, frames: mismatch[
-        "second" if sides is second else "tempo" if sides is tempo else "first"])
+        "second" if sides is second else "tempo" if sides is tempo else "shorter" if sides is shorter else "first"])
     monkeypatch.setattr(R, "tempo_markers", lambda sides: blurred)
-    return SimpleNamespace(calls=calls, mismatch=mismatch, second=second, tempo=tempo, realign=realign, finish=finish)
+    return SimpleNamespace(calls=calls, mismatch=mismatch, second=second, tempo=tempo, shorter=shorter,
+                           realign=realign, finish=finish)
 
 
 def test_the_better_matching_pair_is_kept(stand_ins):
@@ -331,3 +335,59 @@ def test_a_second_opinion_on_other_frames_altogether_is_judged_on_its_own(stand_
                                     since=0)
     assert out is stand_ins.second
     assert "on body frames the first's maps do not cover" in log.warnings[-1] and "kept whole" in log.warnings[-1]
+
+
+def test_covered_frames():
+    sides = _pair()
+    sides["left"].hands_frame[:7] = np.nan
+    assert R.covered_frames(sides) == 2 * N - 7
+
+
+def test_a_located_overlap_gets_a_shorter_second_opinion(stand_ins, monkeypatch):
+    """Open ends (0.32.0): the pair aligned once more with a cheaper uncovered penalty; a candidate
+    only when it leaves SHORTER_OPINION_LESS_S more of each side uncovered (here 20 frames a side,
+    0.67 s), and kept whole or not at all."""
+    W = D.POSITION_WEIGHT_RECHECK
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.5, "tempo": 0.55, "shorter": 0.3})
+    # the takes start and end together (fixed ends): nothing to re-decide, no third run
+    out = R.position_second_opinion(_pair(), SpliceOptions(), Log(), realign=stand_ins.realign,
+                                    finish=stand_ins.finish, since=0)
+    assert out is stand_ins.second and stand_ins.calls == [(W, False), (W, True)]
+    # located: the third run, kept where it matches best
+    stand_ins.calls.clear()
+    monkeypatch.setattr(D, "SHORTER_OPINION_LESS_S", 0.5)  # 15 frames a side at 30 fps
+    log = Log()
+    out = R.position_second_opinion(_pair(ends="open"), SpliceOptions(), log, realign=stand_ins.realign,
+                                    finish=stand_ins.finish, since=0)
+    assert stand_ins.calls == [(W, False), (W, True), (W, False, "shorter")]
+    assert out is stand_ins.shorter and log.warnings[0] == "shorter run"
+    assert "a shorter overlap" in log.warnings[1] and "mismatch 0.300 against 0.600" in log.warnings[1]
+    assert "shorter-overlap second opinion" in log.timings
+    # not clearly shorter (20 frames a side, under 1 s): not a candidate
+    monkeypatch.setattr(D, "SHORTER_OPINION_LESS_S", 1.0)
+    out = R.position_second_opinion(_pair(ends="open"), SpliceOptions(), Log(), realign=stand_ins.realign,
+                                    finish=stand_ins.finish, since=0)
+    assert out is stand_ins.second
+    monkeypatch.setattr(D, "SHORTER_OPINION_QUANTILE", 0.0)  # switched off: no third run
+    stand_ins.calls.clear()
+    R.position_second_opinion(_pair(ends="open"), SpliceOptions(), Log(), realign=stand_ins.realign,
+                              finish=stand_ins.finish, since=0)
+    assert stand_ins.calls == [(W, False), (W, True)]
+
+
+def test_a_shorter_overlap_not_kept_leaves_the_combination_alone(stand_ins, monkeypatch):
+    """Not the best: the combination of the others is what it would be without the third run (its
+    shorter cover does not narrow the frames combined)."""
+    monkeypatch.setattr(D, "SECOND_OPINION_BLEND_S", 1.0)
+    monkeypatch.setattr(D, "SHORTER_OPINION_LESS_S", 0.5)
+    monkeypatch.setattr(R, "replace", lambda obj, **kw: SimpleNamespace(**{**vars(obj), **kw}))  # stand-in sides
+    stand_ins.mismatch.update({"first": 0.6, "second": 0.4, "tempo": 0.5, "shorter": 0.45})
+    log = Log()
+    out = R.position_second_opinion(_pair(ends="open"), SpliceOptions(), log, realign=stand_ins.realign,
+                                    finish=stand_ins.finish, since=0)
+    assert "3 alignments' time maps are combined frame by frame over body frames 0-59" in log.warnings[-1]
+    monkeypatch.setattr(D, "SHORTER_OPINION_QUANTILE", 0.0)
+    without = R.position_second_opinion(_pair(ends="open"), SpliceOptions(), Log(), realign=stand_ins.realign,
+                                        finish=stand_ins.finish, since=0)
+    for s in ("left", "right"):
+        np.testing.assert_array_equal(out[s].hands_frame, without[s].hands_frame)

@@ -15,7 +15,10 @@ leaves clean) is kept, with a note.  A second opinion that placed the hands' mat
 altogether (:data:`splicer.defaults.SECOND_OPINION_RELOCATED_S`, 0.29.1) cannot be judged on the
 frames both alignments cover (one of them is matched to the other's unrelated material there): each
 is judged along the frames it covers itself (:func:`own_mismatch`), and kept whole or left out, with
-a note.  Since 0.28.0 the kept pair's time maps are then combined frame by frame from all three
+a note.  Where the first pair's overlap was located (open ends), a third second opinion (0.32.0)
+aligns it with a cheaper uncovered penalty (:data:`splicer.defaults.SHORTER_OPINION_QUANTILE`),
+taken only when it covers clearly less (:func:`covered_frames`): the first may have stretched the
+hands' last genuine material over body frames past its end.  Since 0.28.0 the kept pair's time maps are then combined frame by frame from all three
 (:func:`blend_maps`): each map weighed by that mismatch over the second around the frame
 (:func:`splicer.align.wrist.local_rate_mismatch`), as the alignment best along one stretch is not
 always the best along the next.  Measured on the ground-truth protocol (benchmarks/HISTORY.md,
@@ -33,7 +36,11 @@ from ..options import SpliceOptions
 from .log import Log
 
 __all__ = ["wants_second_opinion", "map_mismatch", "map_distance_s", "own_mismatch", "tempo_markers",
-           "position_second_opinion", "blend_maps"]
+           "covered_frames", "position_second_opinion", "blend_maps"]
+
+#: How each second opinion was made, for its notes.
+_HOW = {"positions": "", "tempo": ", its markers tempo-matched",
+        "shorter": ", an uncovered body frame costing less (a shorter overlap)"}
 
 
 def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
@@ -122,6 +129,11 @@ def tempo_markers(sides: dict) -> dict:
     return out
 
 
+def covered_frames(sides: dict) -> int:
+    """Body frames with hands material, summed over the sides (a finite ``hands_frame``)."""
+    return sum(int(np.isfinite(np.asarray(r.hands_frame, dtype=np.float64)).sum()) for r in sides.values())
+
+
 def _common_frames(*pairs) -> np.ndarray | None:
     """The body frames every side of every pair of maps covers, when they are one run of at
     least 3 frames; else None."""
@@ -179,6 +191,13 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
         third = log.aside("tempo-matched")
         candidates.append(("tempo", finish(realign(heavier, third, markers=tempo_markers(sides)), third), third))
         log.tick("tempo-matched second opinion")
+    if D.SHORTER_OPINION_QUANTILE > 0 and any(r.alignment.ends == "open" for r in sides.values()):
+        fourth = log.aside("shorter overlap")
+        maps = finish(realign(replace(heavier, uncovered_quantile=D.SHORTER_OPINION_QUANTILE), fourth), fourth)
+        fps = next(iter(sides.values())).markers.spaces.body_fps
+        if covered_frames(maps) <= covered_frames(sides) - D.SHORTER_OPINION_LESS_S * fps * len(sides):
+            candidates.append(("shorter", maps, fourth))
+        log.tick("shorter-overlap second opinion")
     # another overlap altogether: the frames both cover cannot judge it (one of them is the other's
     # unrelated material); each pair is judged along its own covered frames, the better kept whole
     near, elsewhere, moved, first_own = [], [], [], None
@@ -189,7 +208,7 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
             continue
         first_own = own_mismatch(sides) if first_own is None else first_own
         own = own_mismatch(maps)
-        how = f"weighed {D.POSITION_WEIGHT_RECHECK:g}{'' if label == 'positions' else ', its markers tempo-matched'}"
+        how = f"weighed {D.POSITION_WEIGHT_RECHECK:g}{_HOW[label]}"
         where = ("placed the hands' material elsewhere (" + (
             f"its time maps {apart:.1f} s from the first's, the median over the body frames both cover)"
             if np.isfinite(apart) else "on body frames the first's maps do not cover)"))
@@ -208,7 +227,7 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
         log.warnings.extend(lg.warnings)
         log.note(why)
         return maps
-    candidates = near
+    candidates = _shorter_whole_or_not(sides, near)
     frames = _common_frames(sides, *(c[1] for c in candidates)) if candidates else None
     if frames is None:
         for msg in moved:
@@ -222,9 +241,9 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     if again < first:
         del log.warnings[since:]
         log.warnings.extend(lg.warnings)
-        how = "" if label == "positions" else (
-            ", its markers smoothed further where one take ran faster than the other (so that both are blurred over the "
-            "same span of the performance)")
+        how = {"positions": "", "shorter": _HOW["shorter"],
+               "tempo": ", its markers smoothed further where one take ran faster than the other (so that both are "
+                        "blurred over the same span of the performance)"}[label]
         log.note(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions weighed "
                  f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{how}; along that alignment the "
                  f"hand moves relative to the forearm more alike in both takes (mismatch {again:.3f} against "
@@ -240,6 +259,21 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
              f"{frames[-1]}, each weighed by how alike the hand moves relative to the forearm along it over the "
              f"{D.SECOND_OPINION_BLEND_S:g} s around the frame")
     return combined
+
+
+def _shorter_whole_or_not(sides: dict, near: list) -> list:
+    """The near second opinions without the shorter overlap's unless it is the one kept: the
+    best of them on the frames all cover, and better than the first there.  Left out, the rest go on
+    as if it had not run (their common frames are not narrowed by it)."""
+    if not any(label == "shorter" for label, _, _ in near):
+        return near
+    frames = _common_frames(sides, *(c[1] for c in near))
+    if frames is not None:
+        scored = [(map_mismatch(maps, frames), label) for label, maps, _ in near]
+        again, label = min(scored, key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
+        if label == "shorter" and again < map_mismatch(sides, frames):
+            return near
+    return [c for c in near if c[0] != "shorter"]
 
 
 def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | None = None,

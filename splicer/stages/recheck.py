@@ -18,11 +18,11 @@ is judged along the frames it covers itself (:func:`own_mismatch`), and kept who
 a note.  Where the first pair's overlap was located (open ends), a third second opinion (0.32.0)
 aligns it with a cheaper uncovered penalty (:data:`splicer.defaults.SHORTER_OPINION_QUANTILE`),
 taken only when it covers clearly less (:func:`covered_frames`): the first may have stretched the
-hands' last genuine material over body frames past its end.  Since 0.28.0 the kept pair's time maps are then combined frame by frame from all three
-(:func:`blend_maps`): each map weighed by that mismatch over the second around the frame
-(:func:`splicer.align.wrist.local_rate_mismatch`), as the alignment best along one stretch is not
-always the best along the next.  Measured on the ground-truth protocol (benchmarks/HISTORY.md,
-0.18.0, 0.27.0 and 0.28.0).
+hands' last genuine material over body frames past its end.  Since 0.28.0 the kept pair's time
+maps are then combined frame by frame from all three (:func:`blend_maps`): each map weighed by
+that mismatch over the second around the frame (:func:`splicer.align.wrist.local_rate_mismatch`),
+as the alignment best along one stretch is not always the best along the next.  Measured on the
+ground-truth protocol (benchmarks/HISTORY.md, 0.18.0, 0.27.0, 0.28.0 and 0.32.0).
 """
 
 from __future__ import annotations
@@ -155,7 +155,11 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     The second opinions: the pair aligned with the arms' positions weighed
     :data:`~splicer.defaults.POSITION_WEIGHT_RECHECK`; and (:data:`~splicer.defaults.TEMPO_MATCHED`)
     the same with the phase metric's markers smoothed to the tempo the first maps show
-    (:func:`tempo_markers`).
+    (:func:`tempo_markers`); and, where the first pair's overlap was located (open ends), the pair
+    aligned at that weight with :data:`~splicer.defaults.SHORTER_OPINION_QUANTILE` as the uncovered
+    penalty's quantile, a candidate only when it covers at least
+    :data:`~splicer.defaults.SHORTER_OPINION_LESS_S` of body frames per side fewer, and combined
+    with the others only when it is the one kept (:func:`_shorter_whole_or_not`).
 
     Parameters
     ----------

@@ -75,11 +75,16 @@ def _draw_pass(ax, pr, title, constraints=(), *, max_pixels: int = _MAX_PIXELS, 
     return im
 
 
+def _spans(ranges) -> list[tuple[float, float]]:
+    """``[first, last]`` frame ranges as ``(first - 0.5, last + 0.5)``: body frames, each ``[i - 0.5, i + 0.5]``."""
+    return [(a - 0.5, b + 0.5) for a, b in ranges]
+
+
 def _ranges(mask: np.ndarray) -> list[tuple[float, float]]:
-    """The runs of ``mask`` as ``(first - 0.5, last + 0.5)``: body frames, each ``[i - 0.5, i + 0.5]``."""
+    """The runs of ``mask`` as :func:`_spans`."""
     from .transfer.timemap import frame_ranges
 
-    return [(a - 0.5, b + 0.5) for a, b in frame_ranges(mask)]
+    return _spans(frame_ranges(mask))
 
 
 # Layout in inches of one side's cell (4.2 x 3.6 in): fixed rectangles (matplotlib's tight_layout, used
@@ -174,7 +179,7 @@ def figure(result, *, dpi: int = 110) -> Figure:
             ax.axvspans(gaps, _TAB_GRAY, 0.2, "no hands material")
         conf = s.alignment.confidence
         if conf is not None:
-            low = [(a - 0.5, b + 0.5) for a, b in low_confidence_ranges(conf.est_error_s, s.markers.spaces.body_fps)]
+            low = _spans(low_confidence_ranges(conf.est_error_s, s.markers.spaces.body_fps))
             if low:
                 ax.axvspans(low, _TAB_RED, 0.2, f"low confidence (est. error > {LOW_CONFIDENCE_S:g} s)")
         holds = hold_ranges(getattr(s.pass1, "held_rows", None))  # align.holds

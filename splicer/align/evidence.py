@@ -190,7 +190,7 @@ def match_evidence(body: Markers, hands: Markers, *, ends: str, others=(), fps: 
     -------
     Evidence
     """
-    from .passes import Arm, pass1
+    from .passes import Arm, pass1, weight_without_signs
 
     if ends not in ("fixed", "open"):
         raise ValueError(f"ends must be 'fixed' or 'open', got {ends!r}")
@@ -213,7 +213,8 @@ def match_evidence(body: Markers, hands: Markers, *, ends: str, others=(), fps: 
     width = max(3.0, share * b.n_frames) if ends == "fixed" else max(3.0, 3.0 * rate)
     costs, rows = [], []
     for k, turn in enumerate((lambda x: x, played_backwards)):
-        arms = tuple(Arm(ab, turn(ah), a.smooth_s, a.position_weight if a.coordinates else 0.0) for ab, ah, a in arms0)
+        arms = tuple(Arm(ab, turn(ah), a.smooth_s, weight_without_signs(a.position_weight, a.coordinates))
+                     for ab, ah, a in arms0)
         step = None if progress is None else (lambda f, k=k: progress((k + f) / 2.0))
         p = pass1(b, turn(hs), width=width, ends=ends, others=arms, progress=step, **options)
         costs.append(float(p.cost))

@@ -25,7 +25,7 @@ from .openend import (LOCATE_BAND_S, MAX_COARSE_CELLS, OPEN_COARSE_FPS, OPEN_HOR
 from .paths import (_coarse_constraints, coarse_constraints, compose, guided_band, hold_ends, path_median,  # noqa: F401
                     remap_constraints, resample_markers, warp_markers)
 
-__all__ = ["PassResult", "Arm", "arm_paths", "arm_alone", "resample_markers", "pass1", "pass2", "path_median", "compose",
+__all__ = ["PassResult", "Arm", "weight_without_signs", "arm_paths", "arm_alone", "resample_markers", "pass1", "pass2", "path_median", "compose",
            "guided_band", "remap_constraints", "warp_markers", "coarse_constraints", "hold_ends"]
 
 
@@ -150,7 +150,20 @@ class Arm:
         tuning run's overlap by 3 s: benchmarks/HISTORY.md, 0.29.0), so without a position term
         when it read the signs alone."""
         return Arm(resample_markers(self.body, fps), resample_markers(self.hands, fps), self.smooth_s,
-                   self.position_weight if self.coordinates else 0.0)
+                   weight_without_signs(self.position_weight, self.coordinates))
+
+
+def weight_without_signs(position_weight: float, coordinates: bool) -> float:
+    """A position term's weight where the hand-in-forearm signs are dropped (the coarser rates, the
+    check against the hands played backwards): the coordinates' weight, none for a term that held
+    the signs alone (``coordinates=False``: optical markers).
+
+    Examples
+    --------
+    >>> weight_without_signs(10.0, True), weight_without_signs(1.25, False)
+    (10.0, 0.0)
+    """
+    return float(position_weight) if coordinates else 0.0
 
 
 def _arms(body, hands, smooth_s, position_weight, others, wrist_signs=False, coordinates=True) -> list:

@@ -302,7 +302,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
     SplicerError
         A band that cannot reach the pins, named by their file and line.
     """
-    from ..align.passes import arm_paths, hold_ends, pass1, path_median
+    from ..align.passes import arm_paths, hold_ends, pass1, path_median, weight_without_signs
     from ..align.band import band_frames
     from ..align.band_width import pass_widths
     from ..align.posterior import expected_frames
@@ -401,9 +401,9 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                 log.note(f"{who}: {msg}")
             log.tick("pass1")
             log.progress(f"{label}: backwards check", 0.0)
-            # the check has no hand-in-forearm signs: no position term where it would read them alone
-            evidence = _evidence(bmk, hmk, extra, used, smooth_s,
-                                 (pos_open if used == "open" else pos_fixed) if coords else 0.0, opts, log, who, label)
+            evidence = _evidence(bmk, hmk, extra, used, smooth_s,  # the check reads no hand-in-forearm signs
+                                 weight_without_signs(pos_open if used == "open" else pos_fixed, coords), opts,
+                                 log, who, label)
             log.tick("backwards check")
             if _unmatched(evidence):
                 log.note(f"{who}: the takes may not show the same performance: the alignment costs "

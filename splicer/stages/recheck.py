@@ -38,9 +38,11 @@ from .log import Log
 __all__ = ["wants_second_opinion", "map_mismatch", "map_distance_s", "own_mismatch", "tempo_markers",
            "covered_frames", "position_second_opinion", "blend_maps"]
 
-#: How each second opinion was made, for its notes.
+#: How each second opinion was made, for its notes: a relocated one's, and the kept one's (longer).
 _HOW = {"positions": "", "tempo": ", its markers tempo-matched",
         "shorter": ", an uncovered body frame costing less (a shorter overlap)"}
+_HOW_KEPT = {**_HOW, "tempo": ", its markers smoothed further where one take ran faster than the other (so that "
+                              "both are blurred over the same span of the performance)"}
 
 
 def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
@@ -245,11 +247,8 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     if again < first:
         del log.warnings[since:]
         log.warnings.extend(lg.warnings)
-        how = {"positions": "", "shorter": _HOW["shorter"],
-               "tempo": ", its markers smoothed further where one take ran faster than the other (so that both are "
-                        "blurred over the same span of the performance)"}[label]
         log.note(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions weighed "
-                 f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{how}; along that alignment the "
+                 f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{_HOW_KEPT[label]}; along that alignment the "
                  f"hand moves relative to the forearm more alike in both takes (mismatch {again:.3f} against "
                  f"{first:.3f}), and it is kept" + (" as the frame-by-frame combination's base" if blend else ""))
     for msg in moved:  # after the kept alignment's own notes

@@ -131,6 +131,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--body-holds", choices=("on", "off"), default="on",
                    help="where the body holds still (every arm, at least 0.5 s), keep the time map on one hands "
                         "frame: on (default) or off")
+    p.add_argument("--both-skip", choices=("auto", "on", "off"), default="auto",
+                   help="open ends: the takes may overlap partly, the alignment skipping both takes' first (last) "
+                        "frames at once: auto (default: where the hand's motion in the forearm compares, checked "
+                        "against starting and ending on one take's first and last frames), on, or off")
     p.add_argument("--no-repair", action="store_true", help="keep dropouts/gaps of the hands capture as they are "
                    "(default: repair them before aligning, listed in the report)")  # issue 9 (c-handonly)
     p.add_argument("--hands-markers", metavar="C3D", help="optical markers of the hands session (C3D, TRC, CSV), "
@@ -363,7 +367,7 @@ def main(argv=None) -> int:
                             hands_markers=args.hands_markers, body_markers=args.body_markers, ends=args.ends,
                             offset_s=args.offset, noise_ratio=args.noise_ratio,
                             position_weight=args.position_weight, pass1_arms=args.pass1_arms,
-                            body_holds=args.body_holds)
+                            body_holds=args.body_holds, both_skip=args.both_skip)
         after = {}
         with tx:  # every output is staged, and appears only at tx.commit()
             progress("write", 0.0)

@@ -255,6 +255,16 @@ COARSE_ABOVE_S = 120.0
 #: Open ends: a body frame left without hands material costs this quantile of the phase
 #: metric D1 over a sample of all frame pairs (ALGORITHM.md section 9).
 UNCOVERED_QUANTILE = 0.1
+#: Open ends: the takes may overlap partly, the hands take starting (ending) with extra material
+#: *and* after the body's first (before its last) frame.  An open-ended DTW may then start (end)
+#: past both takes' heads (tails) at once, each hands frame skipped beside an uncovered body row
+#: costing this fraction of the uncovered penalty, up to one per uncovered row
+#: (:func:`splicer.align.dtw.dtw`'s ``both_skip_cost``): as if that row had been covered by a
+#: horizontal step at the uncovered penalty's cost (the open passes' horizontal weight, 0.3).
+#: Skipped free, the path dropped genuine material where the hands run slowly (tuning seed 3 of
+#: *all*: 5-12 s); the weight was taken from that rule, not tuned (benchmarks/HISTORY.md,
+#: 0.33.0).  None: starts on row 0 or column 0 only (0.32.0).
+BOTH_SKIP_WEIGHT = 0.3
 #: ends="auto": an open-ended pass 1 that covers the whole body but leaves hands material at an
 #: end (more than a second) is aligned end to end when that material continues the performance:
 #: the last (first) CLOSE_ENDS_S seconds of body frames re-aligned with the end fixed at the

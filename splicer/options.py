@@ -51,6 +51,7 @@ class SpliceOptions:
     ends: str | None = None  # "auto", "open" (find the overlap) or "fixed" (first and last frames match); None: config, else auto
     offset_s: float | None = None  # open ends: body frame 0 shows this hands time, seconds (a starting guess)
     uncovered_quantile: float = D.UNCOVERED_QUANTILE  # open ends: an uncovered body frame costs this quantile of D1
+    both_skip: str = "auto"  # open ends: "on": the takes may overlap partly, the path skipping both takes' heads (tails) at once (defaults.BOTH_SKIP_WEIGHT); "off": on one take's only (0.32.0); "auto": on where the hand-in-forearm motion compares, checked against "off" where it skipped both (stages.overlap), else off
     unsure_edge_s: float = D.UNSURE_EDGE_S  # open ends: a stretch this long next to uncovered frames, estimated error over UNSURE_EDGE_ERROR_S throughout, is uncovered too (stages.coverage.unsure_edges); 0: off
     unmatched_edge_s: float = D.UNMATCHED_EDGE_S  # open ends: a stretch this long next to uncovered frames that matches no better than the hands played backwards is uncovered too (stages.coverage.unmatched_edges), and at the body's own start or end one that matches worse on the whole (unmatched_body_ends); 0: both off
     mirror_hands: str | None = None  # "auto", "yes", "no"; None: the config file's, else auto
@@ -65,7 +66,8 @@ class SpliceOptions:
 _CHOICES = {"side": ("left", "right", "both"), "theta": ("window", "heading"), "passes": ("auto", "pass1", "pass2", "both"),
             "merge": ("timemap", "median"), "wrist": ("body", "hands"), "hands_side": (None, "left", "right"),
             "coarse": ("auto", "on", "off"), "pass1_arms": ("both", "each"),
-            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "body_holds": ("on", "off"), "ends": (None, "auto", "open", "fixed")}
+            "mirror_hands": (None, "auto", "yes", "no"), "repair": ("on", "off"), "body_holds": ("on", "off"), "ends": (None, "auto", "open", "fixed"),
+            "both_skip": ("auto", "on", "off")}
 _NONNEGATIVE = ("uncovered_quantile", "uncovered_blend_s", "smooth_s", "dead_zone", "sign_ramp", "sign_ramp_noisy", "temperature_s",
                 "posterior_radius_s", "timemap_sigma_s", "tempo_var_per_s", "wrist_radius_s", "pass2_weight", "pass2_d1_weight", "coarse_fps",
                 "coarse_above_s", "unsure_edge_s", "unmatched_edge_s")

@@ -17,6 +17,7 @@ from .options import SpliceOptions, resolve_options
 from .stages.align import Alignment, _choose_ends, _cover_pins, _pin_error, agree_ends, align_pair, align_side, phase_smoothing  # noqa: F401
 from .stages.coverage import coverage_edges, mark_coverage_edges, uncover_unsure_edges, unsure_edges
 from .stages.crosscheck import cross_check, hands_disagreement
+from .stages.overlap import both_skip_options, check_both_skip
 from .stages.recheck import position_second_opinion
 from .stages.risk import estimate_risk
 from .stages.load import Inputs, load_inputs
@@ -89,9 +90,12 @@ def splice(body, hands, *, config=None, options: SpliceOptions | None = None, pr
         return sides
 
     since = len(log.warnings)
-    sides = finish(realign(opts, log), log)
+    first = both_skip_options(marks, opts)  # open ends past both takes' heads only where they can be checked
+    sides = finish(realign(first, log), log)
+    if opts.both_skip == "auto":  # the takes overlapping partly (both heads or tails skipped): checked
+        sides, first, since = check_both_skip(sides, first, log, realign=realign, finish=finish, since=since)
     # a noisy pair: aligned again with the positions weighed more, the better-matching maps kept
-    sides = position_second_opinion(sides, opts, log, realign=realign, finish=finish, since=since)
+    sides = position_second_opinion(sides, first, log, realign=realign, finish=finish, since=since)
     sides = estimate_risk(sides)  # every signal weighed together: the error's 98th percentile per frame
     sides = uncover_unsure_edges(sides, opts, log)  # unsure stretches next to uncovered frames: other material
     sides = mark_coverage_edges(sides)  # where the hands' material starts or stops: located to a few frames

@@ -206,3 +206,24 @@ def test_noise_ratio_smooths_a_noisier_hands_take(tmp_path, capsys):
     assert "markers smoothed over" not in out
     code, out, _ = _run([BODY, noisy, "-o", tmp_path / "c.bvh", "--noise-ratio", "1.2"], capsys)
     assert code == 0 and "markers smoothed over" in out and "keeps them" not in out
+
+
+def test_both_skip_reaches_the_splice(tmp_path, capsys, monkeypatch):
+    """``--both-skip`` is the splice's ``both_skip`` (default auto); a value outside the three is a
+    usage error (exit 2), no output."""
+    import splicer.pipeline as P
+    seen = []
+    real = P.splice
+
+    def spy(*a, **kw):
+        seen.append(kw["both_skip"])
+        return real(*a, **kw)
+
+    monkeypatch.setattr(P, "splice", spy)
+    for extra, want in (([], "auto"), (["--both-skip", "off"], "off"), (["--both-skip", "on"], "on")):
+        code, _, err = _run([BODY, HANDS, "-o", tmp_path / f"{want}.bvh", "--passes", "pass1", "-q", *extra], capsys)
+        assert code == 0, err
+    assert seen == ["auto", "off", "on"]
+    with pytest.raises(SystemExit) as e:
+        main([str(BODY), str(HANDS), "-o", str(tmp_path / "x.bvh"), "--both-skip", "sometimes"])
+    assert e.value.code == 2 and not (tmp_path / "x.bvh").exists()

@@ -348,15 +348,17 @@ def test_unsure_start_of_an_all_scenario_keeps_the_body_fingers():
     """The protocol's *all* scenario on the synthetic speaker (tuning seed 1): the hands take
     holds other material before its genuine span and covers part of the body; the path matches
     body frames the hands never show to that material, and is unsure there.  With the stage
-    those frames are reported uncovered (all of them truly so) and keep the body's own fingers."""
+    those frames are reported uncovered (all of them truly so) and keep the body's own fingers.
+    Open ends on one take's first and last frames (``both_skip="off"``): since 0.33.0 the open
+    ends skip both takes' heads here and start on the genuine material, leaving the rule nothing."""
     from splicer import splice
     from splicer.evaluation.scenarios import make_scenario, scenario
     from splicer.evaluation.synth import make_gesture_take
 
     take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
     sep = make_scenario(take, scenario("all"), rng=np.random.default_rng(1))
-    on = splice(sep.body, sep.hands, unmatched_edge_s=0.0)  # the unsure rule alone (the other: below)
-    off = splice(sep.body, sep.hands, unsure_edge_s=0.0, unmatched_edge_s=0.0)
+    on = splice(sep.body, sep.hands, unmatched_edge_s=0.0, both_skip="off")  # the unsure rule alone (the other: below)
+    off = splice(sep.body, sep.hands, unsure_edge_s=0.0, unmatched_edge_s=0.0, both_skip="off")
     for s in on.sides:
         h_on = np.isfinite(np.asarray(on.sides[s].hands_frame, dtype=np.float64))
         h_off = np.isfinite(np.asarray(off.sides[s].hands_frame, dtype=np.float64))

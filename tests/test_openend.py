@@ -24,7 +24,7 @@ def rng():
 
 # ------------------------------------------------------------------ slow reference
 
-def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0, held=None):
+def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0, held=None, b=None):
     """Full-matrix DTW with open ends, straight from the definition.
 
     Start: (0, 0) at cost 0 (fixed), or (open) any admissible (0, j) at cost 0 or (i, 0) with
@@ -38,6 +38,11 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0, hel
     ``hw * C`` (written ``C + (g + pen + (hw - 1) C)`` as the kernel adds it).  A held row
     (``held[i]``, i > 0: the body holds still) is entered only from the cell above, at ``pen``
     and no local cost, or by a start (at its cell's cost); a +inf cost still forbids a cell.
+    ``b`` (both heads / tails skipped at once, not None): a path may also start at any admissible
+    (i, j) of a row that is not held, at u * i + b * min(j, i), with no step (i-1, j) -> (i, j)
+    out of a start cell but a row-0 one past column 0 (into a row that is not held); it may end
+    at any admissible (i, j), at gamma + u * (n - 1 - i) + b * min(m - 1 - j, n - 1 - i), but
+    not on a cell entered by a step (i-1, j) unless on the last row before column m-1.
     """
     n, m = C.shape
     last_start = cons[0].x if cons else n - 1
@@ -49,7 +54,10 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0, hel
             if not mask[i, j]:
                 continue
             up_ok = i > 0 and not (open_begin and j == 0 and step[i - 1, j] == 3)   # no hold out of a start
-            if held is not None and i > 0 and held[i]:
+            is_held = held is not None and i > 0 and held[i]
+            if b is not None and not is_held:   # no hold out of any start but a row-0 one past column 0
+                up_ok = i > 0 and not (step[i - 1, j] == 3 and (i > 1 or j == 0))
+            if is_held:
                 cands = [(g[i - 1, j] + pen - C[i, j] if up_ok and C[i, j] < np.inf else np.inf, 1)]
                 if open_begin and i <= last_start and j == 0:
                     cands.append((u * i, 3))
@@ -65,7 +73,9 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0, hel
                      (g[i - 1, j] + pen if up_ok else np.inf, 1),
                      (g[i, j - 1] + pen + ((hw - 1) * C[i, j] if hw != 1 and C[i, j] < np.inf else 0.0)
                       if j > 0 else np.inf, 2)]
-            if open_begin and i <= last_start and (i == 0 or j == 0):
+            if open_begin and i <= last_start and b is not None:
+                cands.append((u * i + b * min(j, i), 3))
+            elif open_begin and i <= last_start and (i == 0 or j == 0):
                 cands.append((u * i, 3))
             elif not open_begin and i == 0 and j == 0:
                 cands.append((0.0, 3))
@@ -81,6 +91,13 @@ def ref_open_dtw(C, mask, open_begin, open_end, u, cons=(), pen=0.0, hw=1.0, hel
         cost, end = np.inf, None
         for i in range(first_end, n):
             for j in range(m):
+                if b is not None:
+                    if step[i, j] == 1 and (i < n - 1 or j == m - 1):   # no end on a hold
+                        continue
+                    v = g[i, j] + u * (n - 1 - i) + b * min(m - 1 - j, n - 1 - i)
+                    if v < cost:
+                        cost, end = v, (i, j)
+                    continue
                 if not (i == n - 1 or j == m - 1):
                     continue
                 if j == m - 1 and step[i, j] == 1:  # no end on a hold of the last hands frame
@@ -120,16 +137,23 @@ def check_open_path(path, band):
 SHAPES = [(1, 1), (1, 7), (7, 1), (2, 2), (5, 9), (9, 5), (12, 30), (30, 12), (24, 24)]
 
 
+def random_problem(rng, n, m, trial):
+    """Random local costs (some +inf every third trial, else repeated values: ties), an uncovered
+    penalty, a step penalty and a horizontal weight."""
+    C = rng.random((n, m)) * rng.choice([1.0, 3.0])
+    C[rng.random((n, m)) < 0.05] = np.inf if trial % 3 == 0 else C[0, 0]
+    u = float(rng.choice([0.0, 0.2, 0.5, 2.0]))
+    pen = float(rng.choice([0.0, 0.0, 0.1, 0.7]))
+    hw = float(rng.choice([1.0, 1.0, 0.5, 0.2]))
+    return C, u, pen, hw
+
+
 @pytest.mark.parametrize("n,m", SHAPES)
 @pytest.mark.parametrize("ends", [(True, False), (False, True), (True, True), (False, False)])
 def test_open_ends_match_reference(rng, n, m, ends):
     ob, oe = ends
     for trial in range(6):
-        C = rng.random((n, m)) * rng.choice([1.0, 3.0])
-        C[rng.random((n, m)) < 0.05] = np.inf if trial % 3 == 0 else C[0, 0]
-        u = float(rng.choice([0.0, 0.2, 0.5, 2.0]))
-        pen = float(rng.choice([0.0, 0.0, 0.1, 0.7]))
-        hw = float(rng.choice([1.0, 1.0, 0.5, 0.2]))
+        C, u, pen, hw = random_problem(rng, n, m, trial)
         cons = random_constraints(rng, n, m, int(rng.integers(0, 3)), int(rng.integers(0, 3)))
         try:
             if trial % 2:
@@ -250,6 +274,84 @@ def test_features_kernel_matches_reference(rng, ends):
                            horizontal_weight=0.5)
         assert res.cost == pytest.approx(ref_cost, rel=1e-12)
         np.testing.assert_array_equal(res.path, ref_path)
+
+
+@pytest.mark.parametrize("n,m", SHAPES)
+@pytest.mark.parametrize("ends", [(True, False), (False, True), (True, True), (False, False)])
+def test_both_skip_matches_reference(rng, n, m, ends):
+    """Starts and ends at any cell (``both_skip_cost``): the kernels against the reference, with
+    pins, penalties, horizontal weights and held rows."""
+    ob, oe = ends
+    for trial in range(6):
+        C, u, pen, hw = random_problem(rng, n, m, trial)
+        b = float(rng.choice([0.0, 0.1, 0.3, 1.0]))
+        held = rng.random(n) < 0.2 if trial % 2 else None
+        if held is not None:
+            held[0] = False
+        cons = random_constraints(rng, n, m, int(rng.integers(0, 3)), int(rng.integers(0, 3)))
+        try:
+            band = full_band(n, m, cons, open_begin=ob, open_end=oe) if trial % 2 else \
+                make_band(n, m, float(rng.uniform(2, 10)), cons)
+        except SplicerError:
+            continue
+        if not ob and band.lo[0] != 0 or not oe and band.hi[-1] != m - 1:
+            continue
+        mask = band_mask(band)
+        ref_cost, ref_path = ref_open_dtw(C, mask, ob, oe, u, band.constraints, pen, hw, held, b)
+        kw = dict(open_begin=ob, open_end=oe, uncovered_cost=u, step_penalty=pen, horizontal_weight=hw,
+                  held_rows=held, both_skip_cost=b)
+        if ref_path is None:
+            with pytest.raises(BandError, match="no path of finite cost"):
+                dtw(C, band, **kw)
+            continue
+        for cost in (C, as_callable(C, band)):
+            res = dtw(cost, band, **kw)
+            assert res.cost == pytest.approx(ref_cost, rel=1e-12, abs=1e-12)
+            np.testing.assert_array_equal(res.path, ref_path)
+            assert res.both_skip_cost == b
+            check_open_path(res.path, band)
+            for c in band.constraints:        # pins hold
+                js = res.path[res.path[:, 0] == c.x, 1]
+                assert js.size and np.abs(js - c.y).max() <= c.tolerance
+
+
+def test_both_skip_fused_kernel_and_bad_values(rng):
+    n, m = 23, 37
+    X, Y = rng.normal(size=(n, 3)), rng.normal(size=(m, 3))
+    band = full_band(n, m, open_begin=True, open_end=True)
+    for metric, C in (("sqeuclidean", sqdist(X, Y)), ("euclidean", np.sqrt(sqdist(X, Y)))):
+        ref_cost, ref_path = ref_open_dtw(C, band_mask(band), True, True, 1.0, (), 0.25, 0.5, None, 0.3)
+        res = dtw_features(X, Y, band, metric, open_begin=True, open_end=True, uncovered_cost=1.0, step_penalty=0.25,
+                           horizontal_weight=0.5, both_skip_cost=0.3)
+        assert res.cost == pytest.approx(ref_cost, rel=1e-12)
+        np.testing.assert_array_equal(res.path, ref_path)
+    for bad in (-0.1, np.inf, np.nan):
+        with pytest.raises(ValueError, match="both_skip_cost"):
+            dtw(sqdist(X, Y), band, open_begin=True, open_end=True, both_skip_cost=bad)
+    assert dtw(sqdist(X, Y), band, open_begin=True, open_end=True).both_skip_cost is None
+
+
+def test_hand_checked_both_skip():
+    # hands frames 2, 3 show body rows 1, 2: the hands take starts with two frames of extra
+    # material and the body with one uncovered row (and likewise at the end)
+    C = np.full((4, 6), 5.0)
+    C[1, 2] = C[2, 3] = 0.0
+    band = full_band(4, 6)
+    # without both_skip_cost a start is on row 0 or column 0 (an end on row 3 or column 5): the
+    # cheapest is one cell, (0, 5), at 5, and three rows uncovered
+    old = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=1.0)
+    np.testing.assert_array_equal(old.path, [[0, 5]])
+    assert old.cost == 5.0 + 3 * 1.0
+    # with it: start (1, 2) for u * 1 + b * min(2, 1), end (2, 3) for u * 1 + b * min(2, 1)
+    res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=1.0, both_skip_cost=0.5)
+    np.testing.assert_array_equal(res.path, [[1, 2], [2, 3]])
+    assert res.cost == (1.0 + 0.5) + 0.0 + 0.0 + (1.0 + 0.5) and res.covered == (1, 2)
+    # skipped hands frames beyond the uncovered rows are free: b counts min(j, i), not j
+    res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=1.0, both_skip_cost=2.0)
+    assert res.cost == 2 * (1.0 + 2.0)
+    # priced over covering the 5s, the path covers them instead
+    res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=1.0, both_skip_cost=10.0)
+    assert res.cost == old.cost and res.covered == old.covered
 
 
 def test_hand_checked_open_ends():
@@ -384,6 +486,35 @@ def test_hands_cover_only_the_middle_half(rng):
     assert res.path[0, 1] <= 1 and res.path[-1, 1] >= m - 2
     truth = np.interp(res.path[:, 0], warp, np.arange(m))
     assert np.abs(res.path[:, 1] - truth).max() <= 2.0
+
+
+def test_partial_overlap_both_ends(rng):
+    """hands = [3 s still] + the body's middle half, warped + [3 s other motion]: the body's
+    ends are uncovered *and* the hands' extra material skipped, located within two frames; without
+    ``both_skip_cost`` the path must take one of the two at each end."""
+    n = 320
+    body = marker_like(rng, n)
+    a, b = n // 4, 3 * n // 4                        # covered body frames a .. b - 1
+    m_mid = 200
+    warp = a + smooth_warp(rng, m_mid, b - a)
+    pre, post = int(3 * FPS), int(3 * FPS)
+    hands = np.concatenate([np.repeat(body[:1], pre, axis=0), sample(body, warp),
+                            marker_like(np.random.default_rng(7), post)])
+    hands = hands + rng.normal(scale=0.05, size=hands.shape)
+    C = sq_costs(body, hands)
+    u = uncovered_cost_for(C)
+    band = full_band(n, hands.shape[0])
+    res = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=u, both_skip_cost=0.3 * u)
+    # within two frames (a neighbouring body frame of this smooth motion costs less than u)
+    assert abs(res.covered[0] - a) <= 2 and abs(res.covered[1] - (b - 1)) <= 2
+    assert abs(res.path[0, 1] - pre) <= 2 and abs(res.path[-1, 1] - (pre + m_mid - 1)) <= 2
+    truth = pre + np.interp(res.path[:, 0], warp, np.arange(m_mid))
+    assert np.abs(res.path[:, 1] - truth).max() <= 2.0
+    old = dtw(C, band, open_begin=True, open_end=True, uncovered_cost=u)
+    assert old.cost > res.cost
+    wrong = (old.path[0, 0] == 0 or old.path[0, 1] == 0) and (old.path[-1, 0] == n - 1 or
+                                                               old.path[-1, 1] == hands.shape[0] - 1)
+    assert wrong
 
 
 def test_pins_hold_with_open_ends(rng):

@@ -22,7 +22,16 @@ earlier); one starting at ``(i, 0)`` leaves body rows ``0..i-1`` uncovered (the 
 started later), at ``u`` (``uncovered_cost``) each, and likewise at the end.  Body rows
 beyond the hands take are left uncovered, not held on its first or last frame: no step
 ``(i-1, 0) -> (i, 0)`` leaves a start cell, and the path cannot end on column ``m - 1``
-entered by a step ``(i-1, m-1) -> (i, m-1)``.  A start wins only if strictly cheaper than every
+entered by a step ``(i-1, m-1) -> (i, m-1)``.
+
+Both ends skipped at once (``both_skip_cost`` ``b``, off by default): the takes may also
+overlap partly, the hands take starting with extra material *and* after the body's first
+frame.  The path may then start at any admissible cell ``(i, j)`` for
+``u * i + b * min(j, i)`` and end at any ``(i, j)`` for
+``u * (n - 1 - i) + b * min(m - 1 - j, n - 1 - i)``: the hands frames skipped beside uncovered
+body rows cost ``b`` each, up to one per uncovered row (the material that could have covered
+them); hands frames skipped while every body row is covered stay free.  Any step may leave a
+start cell then.  A start wins only if strictly cheaper than every
 predecessor, an end only if strictly cheaper than every earlier one (rows, then columns,
 in increasing order).  With constraints the path must start at or before the first
 constraint's row and end at or after the last one, so every constraint is still honoured.
@@ -77,6 +86,9 @@ class DTWResult:
         Penalty per non-diagonal step included in ``cost``.
     horizontal_weight : float
         Weight of the local cost of cells entered by a ``(i, j-1)`` step.
+    both_skip_cost : float or None
+        Cost per hands frame skipped beside uncovered body rows (starts and ends at any cell),
+        included in ``cost``; None: starts on row 0 or column 0 only.
     """
 
     path: np.ndarray
@@ -88,6 +100,7 @@ class DTWResult:
     uncovered_cost: float = 0.0
     step_penalty: float = 0.0
     horizontal_weight: float = 1.0
+    both_skip_cost: float | None = None
 
 
 # ---------------------------------------------------------------- public wrappers (kernels: .kernels)
@@ -155,7 +168,7 @@ def end_costs(band: Band, open_begin: bool, open_end: bool, uncovered_cost: floa
     return start, end
 
 
-def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0, hw=1.0):
+def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0, hw=1.0, bs=None):
     if open_end:
         cost, iend, jend = float(best[0]), int(best[1]), int(best[2])
     else:
@@ -168,7 +181,7 @@ def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0, 
     path = _backtrack(lo, off, steps, iend, jend)
     return DTWResult(path=path, cost=cost, band=band, covered=(int(path[0, 0]), int(path[-1, 0])),
                      open_begin=bool(open_begin), open_end=bool(open_end), uncovered_cost=float(u),
-                     step_penalty=float(pen), horizontal_weight=float(hw))
+                     step_penalty=float(pen), horizontal_weight=float(hw), both_skip_cost=bs)
 
 
 def _penalty(step_penalty) -> float:
@@ -183,6 +196,16 @@ def _hweight(horizontal_weight) -> float:
     if not (0.0 < w <= 1.0):
         raise ValueError(f"horizontal_weight must be in (0, 1], got {horizontal_weight!r}")
     return w
+
+
+def _both_skip(both_skip_cost) -> float:
+    """The kernels' ``bs``: -1 (off) for None, else the cost, checked."""
+    if both_skip_cost is None:
+        return -1.0
+    b = float(both_skip_cost)
+    if not (b >= 0 and np.isfinite(b)):
+        raise ValueError(f"both_skip_cost must be >= 0 and finite (or None), got {both_skip_cost!r}")
+    return b
 
 
 def _held(held_rows, n: int) -> np.ndarray:
@@ -208,7 +231,7 @@ def _check_costs(block, what):
 
 def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
         uncovered_cost: float = 0.0, step_penalty: float = 0.0, horizontal_weight: float = 1.0,
-        held_rows=None) -> DTWResult:
+        held_rows=None, both_skip_cost: float | None = None) -> DTWResult:
     """Banded DTW with path, on given local costs.
 
     Parameters
@@ -250,6 +273,13 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
         local cost: the path crosses a hold on one hands frame, as if its rows were not
         there, and the motion around the hold places it.  Row 0 is never held.  None: no
         held row, the paper.
+    both_skip_cost : float, optional
+        Beyond the paper: with open ends, the path may also start (end) at any admissible cell,
+        past both takes' heads (tails) at once (the takes overlap partly): hands frames skipped
+        beside uncovered body rows cost this much each, up to one per uncovered row (formula
+        in the module notes), in local-cost units (>= 0).  A held row still starts only at
+        column 0.  None (default): starts on row 0 or column 0, ends on row ``n - 1`` or column
+        ``m - 1``.
 
     Returns
     -------
@@ -277,6 +307,7 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
     pen = _penalty(step_penalty)
     hx = _hweight(horizontal_weight) - 1.0
     held = _held(held_rows, n)
+    bs = _both_skip(both_skip_cost)
     lo, hi, off, wmax, steps, rows = _workspace(band)
     best = np.array([np.inf, -1.0, -1.0])
     if callable(cost):
@@ -291,20 +322,21 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
             # only the band part of each row is checked (padding is ignored)
             mask = np.arange(wmax)[None, :] <= (hi[i0:i1] - lo[i0:i1])[:, None]
             _check_costs(np.where(mask, block, 0.0), f"rows {i0}..{i1 - 1}")
-            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m)
+            _dp_rows(block, False, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m, bs)
     else:
         c = np.asarray(cost)
         if c.shape != (n, m):
             raise ValueError(f"cost matrix must have shape (n, m) = ({n}, {m}), got {c.shape}")
         c = np.ascontiguousarray(c, dtype=np.float64)
         _check_costs(c, "matrix")
-        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m)
-    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0)
+        _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m, bs)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0,
+                   None if bs < 0 else bs)
 
 
 def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: bool = False,
                  open_end: bool = False, uncovered_cost: float = 0.0, step_penalty: float = 0.0,
-                 horizontal_weight: float = 1.0, held_rows=None) -> DTWResult:
+                 horizontal_weight: float = 1.0, held_rows=None, both_skip_cost: float | None = None) -> DTWResult:
     """Banded DTW with path, local cost computed on the fly from feature vectors.
 
     Parameters
@@ -317,7 +349,7 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
         Admissible cells, with ``band.n == n`` and ``band.m == m``.
     metric : {"sqeuclidean", "euclidean"}
         Local cost: squared Euclidean distance (units of X squared) or Euclidean distance.
-    open_begin, open_end, uncovered_cost, step_penalty, horizontal_weight, held_rows
+    open_begin, open_end, uncovered_cost, step_penalty, horizontal_weight, held_rows, both_skip_cost
         As :func:`dtw`.
 
     Returns
@@ -352,10 +384,12 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
     pen = _penalty(step_penalty)
     hx = _hweight(horizontal_weight) - 1.0
     held = _held(held_rows, band.n)
+    bs = _both_skip(both_skip_cost)
     Xc = np.ascontiguousarray(X)
     Yt = np.ascontiguousarray(Y.T)
     lo, hi, off, wmax, steps, rows = _workspace(band)
     crow = np.empty(wmax)
     best = np.array([np.inf, -1.0, -1.0])
-    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx, held)
-    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0)
+    _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx, held, bs)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0,
+                   None if bs < 0 else bs)

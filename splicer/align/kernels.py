@@ -159,17 +159,74 @@ def _scan_end(cur, w, ec, i, L, best, steps, s0, last_row, m):
 
 
 @njit(cache=True)
-def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m):
+def _dp_row_both(crow, c0, L, H, plo, phi, prev, cur, steps, s0, i, sci, bs, p0, pen, hx):
+    # One DP row (i >= 1) where the path may also start at any cell: at (i, j) for
+    # sci + bs * min(j, i) (sci: the row's start cost, +inf: none; bs: per hands frame skipped
+    # beside uncovered body rows).  Candidates in the tie order diagonal, (i-1, j), (i, j-1),
+    # start; a later one wins only if strictly smaller.  No step (i-1, j) -> (i, j) out of a
+    # start cell (steps[p0 + j - plo] == 3: body rows before the hands material are uncovered,
+    # not held on its first frame), except a row-0 start past column 0.  Arguments as _dp_row.
+    inf = np.inf
+    left = inf
+    for k in range(H - L + 1):
+        j = L + k
+        c = crow[c0 + k]
+        best = inf
+        s = 0
+        if plo <= j - 1 <= phi:
+            best = prev[j - 1 - plo]
+        if plo <= j <= phi and not (steps[p0 + j - plo] == 3 and (i > 1 or j == 0)):
+            up = prev[j - plo] + pen
+            if up < best:
+                best = up
+                s = 1
+        if k > 0:
+            lp = left + pen + (hx * c if (hx != 0.0 and c < inf) else 0.0)
+            if lp < best:
+                best = lp
+                s = 2
+        st = sci + bs * min(j, i)
+        if st < best:
+            best = st
+            s = 3
+        left = c + best
+        cur[k] = left
+        steps[s0 + k] = s
+
+
+@njit(cache=True)
+def _scan_end_both(cur, w, eci, i, L, best, n, m, bs, steps, s0):
+    # Open end at any cell: (i, j) for gamma + eci + bs * min(m - 1 - j, n - 1 - i), strictly
+    # smaller than the best so far (rows, then columns, in increasing order); not on a cell
+    # entered by a step (i-1, j) (body rows after the hands material are uncovered, not held
+    # on its last frame), except on the last row before column m - 1.
+    for k in range(w):
+        j = L + k
+        if steps[s0 + k] == 1 and (i < n - 1 or j == m - 1):
+            continue
+        v = cur[k] + eci + bs * min(m - 1 - j, n - 1 - i)
+        if v < best[0]:
+            best[0] = v
+            best[1] = i
+            best[2] = j
+
+
+@njit(cache=True)
+def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m, bs):
     # Rows i0..i1-1 from cost block C (row r = i - i0); column j of row i is at C[r, j] if
     # absolute else C[r, j - lo[i]].  rows: (2, width) gamma buffer indexed by row parity.
     # sc[i]: start cost in row i (+inf: none; row 0 always starts); ec[i]: end cost (+inf: none).
-    # held[i]: row i is a body hold (_dp_held_row).
+    # held[i]: row i is a body hold (_dp_held_row).  bs >= 0: starts and ends at any cell
+    # (_dp_row_both, _scan_end_both); bs < 0: on row 0 / column 0 and row n-1 / column m-1.
     for i in range(i0, i1):
         r = i - i0
         c0 = lo[i] if absolute else 0
         cur = rows[i & 1]
         if i == 0:
             _dp_first_row(C[r], c0, hi[0] - lo[0] + 1, cur, steps, sc[0], pen, hx)
+        elif bs >= 0.0 and not held[i]:
+            _dp_row_both(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
+                         steps, off[i], i, sc[i], bs, off[i - 1], pen, hx)
         elif held[i]:
             _dp_held_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
                          steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
@@ -177,14 +234,17 @@ def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, h
             _dp_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
                     steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen, hx)
         if ec[i] < np.inf:
-            _scan_end(cur, hi[i] - lo[i] + 1, ec[i], i, lo[i], best, steps, off[i], i == lo.shape[0] - 1,
-                      m)
+            if bs >= 0.0:
+                _scan_end_both(cur, hi[i] - lo[i] + 1, ec[i], i, lo[i], best, lo.shape[0], m, bs, steps, off[i])
+            else:
+                _scan_end(cur, hi[i] - lo[i] + 1, ec[i], i, lo[i], best, steps, off[i], i == lo.shape[0] - 1,
+                          m)
 
 
 @njit(cache=True)
-def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx, held):
+def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx, held, bs):
     # Whole DP with local cost from features: X (n, d), Yt (d, m) (Y transposed);
-    # metric 0 squared Euclidean, 1 Euclidean.  Start / end costs as _dp_rows.
+    # metric 0 squared Euclidean, 1 Euclidean.  Start / end costs and bs as _dp_rows.
     n, d = X.shape
     for i in range(n):
         L = lo[i]
@@ -203,6 +263,9 @@ def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, 
         cur = rows[i & 1]
         if i == 0:
             _dp_first_row(crow, 0, w, cur, steps, sc[0], pen, hx)
+        elif bs >= 0.0 and not held[i]:
+            _dp_row_both(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
+                         off[i], i, sc[i], bs, off[i - 1], pen, hx)
         elif held[i]:
             _dp_held_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
                          off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
@@ -210,7 +273,10 @@ def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, 
             _dp_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
                     off[i], sc[i], sc[0] < np.inf, off[i - 1], pen, hx)
         if ec[i] < np.inf:
-            _scan_end(cur, w, ec[i], i, L, best, steps, off[i], i == n - 1, Yt.shape[1])
+            if bs >= 0.0:
+                _scan_end_both(cur, w, ec[i], i, L, best, n, Yt.shape[1], bs, steps, off[i])
+            else:
+                _scan_end(cur, w, ec[i], i, L, best, steps, off[i], i == n - 1, Yt.shape[1])
 
 
 @njit(cache=True)

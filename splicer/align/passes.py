@@ -105,6 +105,15 @@ class PassResult:
     held_rows: object = None  # np.ndarray (n,) bool or None: the full-rate DTW's held rows (body holds)
     tempo_matched: bool = False  # pass 1 read markers smoothed to the other take's tempo (Markers.blur)
     wrist_signs: bool = False  # pass 1's position term read the hand-in-forearm signs (align.costs.wrist_sign_features)
+    both_skip_weight: float | None = None  # open ends: hands frames skipped beside uncovered body rows cost this times uncovered_cost (None: starts on row 0 / column 0 only)
+
+    def skipped_both(self) -> bool:
+        """Open ends: whether the path starts (or ends) past both takes' first (last) frames at once
+        (the takes overlap partly; :func:`splicer.align.dtw.dtw`'s ``both_skip_cost``)."""
+        if self.ends != "open" or len(self.path) == 0:
+            return False
+        (i0, j0), (i1, j1) = self.path[0], self.path[-1]
+        return bool((i0 > 0 and j0 > 0) or (i1 < self.band.n - 1 and j1 < self.band.m - 1))
 
     def __repr__(self) -> str:
         return f"PassResult(name={self.name!r}, path={len(self.path)} cells, cost={self.cost:.6g}, band={self.band!r})"
@@ -251,7 +260,8 @@ def arm_alone(p: PassResult, k: int) -> np.ndarray:
             band = p.band
     band, held = hold_band(band, p.held_rows)
     return _run(p.arm_costs[k], band, None, open_begin=True, open_end=True, uncovered_cost=u,
-                step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight, held_rows=held).path
+                step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight, held_rows=held,
+                both_skip_cost=_both_skip_cost(p.both_skip_weight, u)).path
 
 
 def arm_paths(p: PassResult, progress=None, *, own_penalty: bool = False) -> list:
@@ -280,7 +290,8 @@ def _arm_path(p: PassResult, k: int, *, own_penalty: bool, progress=None) -> np.
     ends = {}
     if p.ends == "open":  # the pass's uncovered penalty, or the arm's own, as if it were aligned alone
         u = p.arm_uncovered[k] if own_penalty and k < len(p.arm_uncovered) else p.uncovered_cost
-        ends = dict(open_begin=True, open_end=True, uncovered_cost=u)
+        ends = dict(open_begin=True, open_end=True, uncovered_cost=u,
+                    both_skip_cost=_both_skip_cost(p.both_skip_weight, u))
     return _run(p.arm_costs[k], p.band, progress, step_penalty=p.step_penalty, horizontal_weight=p.horizontal_weight,
                 held_rows=p.held_rows, **ends).path
 
@@ -300,9 +311,16 @@ def _uncovered_penalties(arms: list, features: list, theta: str, quantile: float
     return u, tuple(uncovered_penalty(_arms_sample([a], [f], theta), quantile) for a, f in zip(arms, features))
 
 
+def _both_skip_cost(weight: float | None, u: float) -> float | None:
+    """:func:`splicer.align.dtw.dtw`'s ``both_skip_cost`` of an open-ended pass: ``weight`` times the
+    uncovered penalty ``u`` (None: starts on row 0 or column 0 only)."""
+    return None if weight is None else float(weight) * float(u)
+
+
 def _run(cost, band: Band, progress=None, **ends) -> DTWResult:
     """The DTW over ``band`` with a band-chunk cost; ``progress(fraction)`` after each chunk of rows.
-    ``ends``: :func:`splicer.dtw.dtw`'s ``open_begin``, ``open_end``, ``uncovered_cost``."""
+    ``ends``: :func:`splicer.dtw.dtw`'s ``open_begin``, ``open_end``, ``uncovered_cost``, penalties
+    and ``both_skip_cost``."""
     if progress is None:
         return dtw(lambda i0, i1: cost(band, i0, i1), band, **ends)
 
@@ -321,7 +339,8 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
           max_coarse_cells: int = MAX_COARSE_CELLS, step_penalty: float = 0.0,
           horizontal_weight: float | None = None, guide: np.ndarray | None = None,
           cache_bytes: int = CACHE_BYTES, position_weight: float = 0.0, others=(),
-          held_rows=None, wrist_signs: bool = False, coordinates: bool = True) -> PassResult:
+          held_rows=None, wrist_signs: bool = False, coordinates: bool = True,
+          both_skip_weight: float | None = D.BOTH_SKIP_WEIGHT) -> PassResult:
     """Pass 1: banded DTW with the phase metric D1.
 
     Parameters
@@ -380,6 +399,11 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
         frame on the same body frame), in ``(0, 1]``.  Default: 1 (the paper) with fixed
         ends, :data:`OPEN_HORIZONTAL_WEIGHT` with open ends, where a full weight makes a path
         that skips hands material cheaper than one that covers it.
+    both_skip_weight : float or None
+        Open ends: the path may also start (end) past both takes' first (last) frames at once,
+        each hands frame skipped beside an uncovered body row costing this times the uncovered
+        penalty (:func:`splicer.align.dtw.dtw`'s ``both_skip_cost``; default
+        :data:`splicer.defaults.BOTH_SKIP_WEIGHT`); None: on row 0 or column 0 only (0.32.0).
     cache_bytes : int
         The full-rate pass keeps up to this many bytes of its local costs (float32, 4 bytes a
         band cell; :class:`splicer.align.costcache.CachedBandCost`) so that the expected path
@@ -430,7 +454,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
                            uncovered_quantile=uncovered_quantile, uncovered_cost=uncovered_cost,
                            max_coarse_cells=max_coarse_cells, step_penalty=step_penalty, cache_bytes=cache_bytes,
                            horizontal_weight=OPEN_HORIZONTAL_WEIGHT if horizontal_weight is None else horizontal_weight,
-                           held_rows=held_rows)
+                           held_rows=held_rows, both_skip_weight=both_skip_weight)
     hw = 1.0 if horizontal_weight is None else float(horizontal_weight)
     n, m = body.n_frames, hands.n_frames
     notes: tuple = ()
@@ -468,7 +492,7 @@ def pass1(body: Markers, hands: Markers, *, width: float, constraints=(), smooth
 
 def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse_fps, coarse_width, progress,
                 offset_s, uncovered_quantile, uncovered_cost, max_coarse_cells, step_penalty, horizontal_weight,
-                cache_bytes, held_rows=None):
+                cache_bytes, held_rows=None, both_skip_weight=None):
     body, hands, position_weight = arms[0].body, arms[0].hands, arms[0].position_weight
     n, m = body.n_frames, hands.n_frames
     # long takes: the whole matrix at a low rate, then each finer rate around the coarser path
@@ -507,11 +531,12 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
         # second (the hour-long pair's locating pass took 11 s, all of it at 0 % before)
         first = None if progress is None else (lambda f, k=level: progress(0.5 * (k + f) / len(rates)))
         coarser = coarse = _run(d1c, cband, first, open_begin=True, open_end=True, uncovered_cost=u,
-                                step_penalty=step_penalty, horizontal_weight=horizontal_weight)
+                                step_penalty=step_penalty, horizontal_weight=horizontal_weight,
+                                both_skip_cost=_both_skip_cost(both_skip_weight, u))
         level += 1
     located = PassResult(coarse.path, coarse.cost, cband, "pass1 (locating)", d1c, coarse.covered, float(u), "open",
                          step_penalty, float(horizontal_weight), None, cfps, position_weight=float(position_weight),
-                         arms=len(arms), arm_costs=ceach, arm_uncovered=arm_u)
+                         arms=len(arms), arm_costs=ceach, arm_uncovered=arm_u, both_skip_weight=both_skip_weight)
     if factor > 1.0:
         try:
             band = guided_band(coarse.path, factor, n, m, width, constraints, open_begin=True, open_end=True)
@@ -539,10 +564,12 @@ def _pass1_open(arms, *, width, constraints, dead_zone, sign_ramp, theta, coarse
     kept = CachedBandCost(d1, band, budget_bytes=cache_bytes)
     second = None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
     res = _run(kept, band, second, open_begin=True, open_end=True, uncovered_cost=u, step_penalty=step_penalty,
-               horizontal_weight=horizontal_weight, held_rows=held_rows)
+               horizontal_weight=horizontal_weight, held_rows=held_rows,
+               both_skip_cost=_both_skip_cost(both_skip_weight, u))
     return PassResult(res.path, res.cost, band, "pass1", d1, res.covered, float(u), "open", step_penalty,
                       float(horizontal_weight), located, body.fps, notes, kept, float(position_weight), len(arms),
-                      each, arm_u, held_rows, tempo_matched=_blurred(arms), wrist_signs=_wrist_signs(arms))
+                      each, arm_u, held_rows, tempo_matched=_blurred(arms), wrist_signs=_wrist_signs(arms),
+                      both_skip_weight=both_skip_weight)
 
 
 def _pass2_cost(d2, d1, n_band_scale: float, weight: float, d1_weight: float):

@@ -252,6 +252,14 @@ def _unmatched(evidence) -> bool:
     return evidence is not None and evidence.ratio >= D.BACKWARDS_RATIO
 
 
+def both_skip_weight(opts: SpliceOptions) -> float | None:
+    """Open-ended passes' ``both_skip_weight`` (:func:`splicer.align.passes.pass1`):
+    :data:`splicer.defaults.BOTH_SKIP_WEIGHT` with ``opts.both_skip == "on"``, else None (``"auto"``
+    is resolved by the splice, :func:`splicer.stages.overlap.both_skip_options`; a stage called
+    alone reads it as ``"off"``)."""
+    return D.BOTH_SKIP_WEIGHT if opts.both_skip == "on" else None
+
+
 def _evidence(bmk, hmk, extra: list, ends: str, smooth_s: float, position_weight: float, opts: SpliceOptions,
               log: Log, who: str, label: str):
     """Pass 1 against the hands take played backwards (:func:`splicer.align.evidence.match_evidence`), with
@@ -262,7 +270,7 @@ def _evidence(bmk, hmk, extra: list, ends: str, smooth_s: float, position_weight
         return match_evidence(bmk, hmk, ends=ends, others=_other_arms(extra, ends == "open"), smooth_s=smooth_s,
                               dead_zone=opts.dead_zone, sign_ramp=opts.sign_ramp, theta=opts.theta,
                               position_weight=position_weight,
-                              uncovered_quantile=opts.uncovered_quantile,
+                              uncovered_quantile=opts.uncovered_quantile, both_skip_weight=both_skip_weight(opts),
                               progress=lambda f: log.progress(f"{label}: backwards check", f))
     except (SplicerError, ValueError) as e:  # takes too short at the check's rate: no verdict, never a failed splice
         log.note(f"{who}: the check against the hands take played backwards could not run ({e}); nothing says "
@@ -352,7 +360,7 @@ def locate(markers: SideMarkers, opts: SpliceOptions, log: Log | None = None, *,
                   coarse_fps=None if open_ends else (opts.coarse_fps if guided else None),
                   coarse_width=None if open_ends else band_frames("30%", n=n, fps=fps),
                   guide=None if open_ends else guide_path, others=arms, held_rows=held, wrist_signs=wrist,
-                  coordinates=coords,
+                  coordinates=coords, both_skip_weight=both_skip_weight(opts),
                   progress=lambda f: log.progress(f"{label}: {stage}", f))
         return p, w1, w2, cons
 

@@ -159,39 +159,52 @@ def _scan_end(cur, w, ec, i, L, best, steps, s0, last_row, m):
 
 
 @njit(cache=True)
-def _dp_row_both(crow, c0, L, H, plo, phi, prev, cur, steps, s0, i, sci, bs, p0, pen, hx):
+def _dp_row_both(crow, c0, L, H, plo, phi, prev, cur, steps, s0, i, sci, bs, p0, pen, hx, held_start):
     # One DP row (i >= 1) where the path may also start at any cell: at (i, j) for
     # sci + bs * min(j, i) (sci: the row's start cost, +inf: none; bs: per hands frame skipped
     # beside uncovered body rows).  Candidates in the tie order diagonal, (i-1, j), (i, j-1),
     # start; a later one wins only if strictly smaller.  No step (i-1, j) -> (i, j) out of a
     # start cell (steps[p0 + j - plo] == 3: body rows before the hands material are uncovered,
-    # not held on its first frame), except a row-0 start past column 0.  Arguments as _dp_row.
+    # not held on its first frame), except a row-0 start past column 0; held_start: the previous
+    # row has a start cell (else there is nothing to check).  Arguments as _dp_row.  Returns
+    # whether this row has a start cell.
     inf = np.inf
     left = inf
+    started = False
+    can_start = sci < inf
+    late = sci + bs * i                   # the start cost from column i on
+    first = i == 1
     for k in range(H - L + 1):
         j = L + k
         c = crow[c0 + k]
+        d = j - plo
         best = inf
         s = 0
-        if plo <= j - 1 <= phi:
-            best = prev[j - 1 - plo]
-        if plo <= j <= phi and not (steps[p0 + j - plo] == 3 and (i > 1 or j == 0)):
-            up = prev[j - plo] + pen
-            if up < best:
-                best = up
-                s = 1
+        if 1 <= d <= phi - plo + 1:
+            best = prev[d - 1]
+        if 0 <= d <= phi - plo:
+            if not (held_start and steps[p0 + d] == 3 and (not first or j == 0)):
+                up = prev[d] + pen
+                if up < best:
+                    best = up
+                    s = 1
         if k > 0:
-            lp = left + pen + (hx * c if (hx != 0.0 and c < inf) else 0.0)
+            lp = left + pen
+            if hx != 0.0 and c < inf:
+                lp += hx * c
             if lp < best:
                 best = lp
                 s = 2
-        st = sci + bs * min(j, i)
-        if st < best:
-            best = st
-            s = 3
+        if can_start:
+            st = late if j >= i else sci + bs * j
+            if st < best:
+                best = st
+                s = 3
+                started = True
         left = c + best
         cur[k] = left
         steps[s0 + k] = s
+    return started
 
 
 @njit(cache=True)
@@ -218,16 +231,19 @@ def _dp_rows(C, absolute, i0, i1, lo, hi, off, rows, steps, sc, ec, best, pen, h
     # sc[i]: start cost in row i (+inf: none; row 0 always starts); ec[i]: end cost (+inf: none).
     # held[i]: row i is a body hold (_dp_held_row).  bs >= 0: starts and ends at any cell
     # (_dp_row_both, _scan_end_both); bs < 0: on row 0 / column 0 and row n-1 / column m-1.
+    started = True                        # the row before i0 may hold a start cell
     for i in range(i0, i1):
         r = i - i0
         c0 = lo[i] if absolute else 0
         cur = rows[i & 1]
         if i == 0:
             _dp_first_row(C[r], c0, hi[0] - lo[0] + 1, cur, steps, sc[0], pen, hx)
+            started = True
         elif bs >= 0.0 and not held[i]:
-            _dp_row_both(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
-                         steps, off[i], i, sc[i], bs, off[i - 1], pen, hx)
+            started = _dp_row_both(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
+                                   steps, off[i], i, sc[i], bs, off[i - 1], pen, hx, started)
         elif held[i]:
+            started = True
             _dp_held_row(C[r], c0, lo[i], hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur,
                          steps, off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
         else:
@@ -246,6 +262,7 @@ def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, 
     # Whole DP with local cost from features: X (n, d), Yt (d, m) (Y transposed);
     # metric 0 squared Euclidean, 1 Euclidean.  Start / end costs and bs as _dp_rows.
     n, d = X.shape
+    started = True
     for i in range(n):
         L = lo[i]
         w = hi[i] - L + 1
@@ -263,10 +280,12 @@ def _dp_fused(X, Yt, metric, lo, hi, off, rows, crow, steps, sc, ec, best, pen, 
         cur = rows[i & 1]
         if i == 0:
             _dp_first_row(crow, 0, w, cur, steps, sc[0], pen, hx)
+            started = True
         elif bs >= 0.0 and not held[i]:
-            _dp_row_both(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
-                         off[i], i, sc[i], bs, off[i - 1], pen, hx)
+            started = _dp_row_both(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
+                                   off[i], i, sc[i], bs, off[i - 1], pen, hx, started)
         elif held[i]:
+            started = True
             _dp_held_row(crow, 0, L, hi[i], lo[i - 1], hi[i - 1], rows[(i - 1) & 1], cur, steps,
                          off[i], sc[i], sc[0] < np.inf, off[i - 1], pen)
         else:

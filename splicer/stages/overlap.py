@@ -11,10 +11,11 @@ less than covering it, and the path then starts seconds into the genuine materia
 ``both_skip="auto"`` (the default), where the first alignment skipped both at either end
 (:func:`skipped_both`), the pair is aligned again with ``"off"``'s ends, and the alignment along
 which the hand moves relative to the forearm more alike in both takes, each along the body frames
-it covers itself (:func:`splicer.stages.recheck.own_mismatch`, a signal pass 1 does not read), is
-kept; the rest of the splice (its second opinions) aligns as the kept one did.  Where that cannot
-be read (a hand-only file, optical markers, markers that do not compare: :func:`can_judge`), the
-pair is aligned on one take's ends from the start (:func:`both_skip_options`), as before 0.33.0.  Measured on the ground-truth protocol
+both its sides cover (:func:`splicer.stages.recheck.own_mismatch`, a signal pass 1 does not read),
+is kept; the rest of the splice (its second opinions) aligns as the kept one did.  Where that
+cannot be read (a hand-only file, optical markers, markers that do not compare:
+:func:`can_judge`), the pair is aligned on one take's ends from the start
+(:func:`both_skip_options`), as before 0.33.0.  Measured on the ground-truth protocol
 (benchmarks/HISTORY.md, 0.33.0).
 """
 

@@ -168,7 +168,7 @@ def end_costs(band: Band, open_begin: bool, open_end: bool, uncovered_cost: floa
     return start, end
 
 
-def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0, hw=1.0, bs=None):
+def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0, hw=1.0, bs=-1.0):
     if open_end:
         cost, iend, jend = float(best[0]), int(best[1]), int(best[2])
     else:
@@ -181,7 +181,8 @@ def _finish(band, lo, off, steps, rows, best, open_begin, open_end, u, pen=0.0, 
     path = _backtrack(lo, off, steps, iend, jend)
     return DTWResult(path=path, cost=cost, band=band, covered=(int(path[0, 0]), int(path[-1, 0])),
                      open_begin=bool(open_begin), open_end=bool(open_end), uncovered_cost=float(u),
-                     step_penalty=float(pen), horizontal_weight=float(hw), both_skip_cost=bs)
+                     step_penalty=float(pen), horizontal_weight=float(hw),
+                     both_skip_cost=None if bs < 0 else float(bs))
 
 
 def _penalty(step_penalty) -> float:
@@ -330,8 +331,7 @@ def dtw(cost, band: Band, *, open_begin: bool = False, open_end: bool = False,
         c = np.ascontiguousarray(c, dtype=np.float64)
         _check_costs(c, "matrix")
         _dp_rows(c, True, 0, n, lo, hi, off, rows, steps, sc, ec, best, pen, hx, held, m, bs)
-    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0,
-                   None if bs < 0 else bs)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0, bs)
 
 
 def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: bool = False,
@@ -391,5 +391,4 @@ def dtw_features(X, Y, band: Band, metric: str = "sqeuclidean", *, open_begin: b
     crow = np.empty(wmax)
     best = np.array([np.inf, -1.0, -1.0])
     _dp_fused(Xc, Yt, _METRICS[metric], lo, hi, off, rows, crow, steps, sc, ec, best, pen, hx, held, bs)
-    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0,
-                   None if bs < 0 else bs)
+    return _finish(band, lo, off, steps, rows, best, open_begin, open_end, uncovered_cost, pen, hx + 1.0, bs)

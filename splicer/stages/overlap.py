@@ -14,7 +14,7 @@ which the hand moves relative to the forearm more alike in both takes, each alon
 both its sides cover (:func:`splicer.stages.recheck.own_mismatch`, a signal pass 1 does not read),
 is kept; the rest of the splice (its second opinions) aligns as the kept one did.  Where that
 cannot be read (a hand-only file, optical markers, markers that do not compare:
-:func:`can_judge`), the pair is aligned on one take's ends from the start
+:func:`splicer.stages.recheck.forearm_motion_compares`), the pair is aligned on one take's ends from the start
 (:func:`both_skip_options`), as before 0.33.0.  Measured on the ground-truth protocol
 (benchmarks/HISTORY.md, 0.33.0).
 """
@@ -27,9 +27,9 @@ import numpy as np
 
 from ..options import SpliceOptions
 from .log import Log
-from .recheck import own_mismatch
+from .recheck import forearm_motion_compares, own_mismatch
 
-__all__ = ["skipped_both", "can_judge", "both_skip_options", "check_both_skip"]
+__all__ = ["skipped_both", "both_skip_options", "check_both_skip"]
 
 
 def skipped_both(sides: dict) -> bool:
@@ -43,25 +43,14 @@ def skipped_both(sides: dict) -> bool:
     return False
 
 
-def can_judge(markers: dict) -> bool:
-    """Whether the hand's motion relative to the forearm compares in both takes on every side (dict
-    of str -> :class:`~splicer.stages.markers.SideMarkers`: BVH skeletons on both sessions, their
-    markers placed alike, :func:`splicer.align.wrist.markers_compare`)."""
-    from ..align.wrist import markers_compare
-
-    for mk in markers.values():
-        if mk.hand_only or mk.real or not markers_compare(mk.placed, mk.body.points, mk.hands.points):
-            return False
-    return True
-
-
 def both_skip_options(markers: dict, opts: SpliceOptions) -> SpliceOptions:
     """The first alignment's options: ``both_skip="auto"`` becomes ``"on"`` where the check can be
-    read (:func:`can_judge`; then :func:`check_both_skip`), else ``"off"``, as before 0.33.0.
+    read (:func:`splicer.stages.recheck.forearm_motion_compares`; then :func:`check_both_skip`), else
+    ``"off"``, as before 0.33.0.
     (The alignment stages read ``"auto"`` as ``"off"``: :func:`splicer.stages.align.both_skip_weight`.)"""
     if opts.both_skip != "auto":
         return opts
-    return replace(opts, both_skip="on" if can_judge(markers) else "off")
+    return replace(opts, both_skip="on" if forearm_motion_compares(markers) else "off")
 
 
 def check_both_skip(sides: dict, opts: SpliceOptions, log: Log, *, realign, finish,

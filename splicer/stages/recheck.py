@@ -36,7 +36,7 @@ from ..options import SpliceOptions
 from .log import Log
 
 __all__ = ["wants_second_opinion", "map_mismatch", "map_distance_s", "own_mismatch", "tempo_markers",
-           "covered_frames", "position_second_opinion", "blend_maps"]
+           "covered_frames", "forearm_motion_compares", "position_second_opinion", "blend_maps"]
 
 #: How each second opinion was made, for its notes: a relocated one's, and the kept one's (longer).
 _HOW = {"positions": "", "tempo": ", its markers tempo-matched",
@@ -56,14 +56,23 @@ def wants_second_opinion(sides: dict, opts: SpliceOptions) -> bool:
     performance where the first had lost it (*all*, tuning seeds 19 and 21: 0.654 -> 0.204 s and
     0.087 -> 0.024 s mean error); each alignment's confidence comes from its own check, so a pair
     of two performances stays low confidence throughout whichever is kept."""
-    from ..align.wrist import markers_compare
-
     if len(sides) != 2 or opts.position_weight != "auto" or not D.POSITION_WEIGHT_RECHECK > 0:
         return False
     for r in sides.values():
-        p1, mk = r.alignment.pass1, r.markers
+        p1 = r.alignment.pass1
         if p1 is None or getattr(p1, "position_weight", None) != D.POSITION_WEIGHT_NOISY:
             return False
+    return forearm_motion_compares({s: r.markers for s, r in sides.items()})
+
+
+def forearm_motion_compares(markers: dict) -> bool:
+    """Whether the hand's motion relative to the forearm, the signal the second opinions are judged
+    by, compares in both takes on every side (dict of str -> :class:`~splicer.stages.markers.SideMarkers`:
+    BVH skeletons on both sessions, no hand-only file, no optical markers, their markers placed
+    alike: :func:`splicer.align.wrist.markers_compare`)."""
+    from ..align.wrist import markers_compare
+
+    for mk in markers.values():
         if mk.hand_only or mk.real or not markers_compare(mk.placed, mk.body.points, mk.hands.points):
             return False
     return True

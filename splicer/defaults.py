@@ -130,17 +130,37 @@ SECOND_OPINION_TAU = 0.1
 #: 5-7 for every candidate, and the combination took a start 0.1 -> 0.4 s off; test_close_ends).
 SECOND_OPINION_MIN_MOTION = 0.25
 #: A second opinion whose time maps lie further than this from the first pair's (the median over
-#: the body frames both cover, seconds) placed the hands' material elsewhere altogether, and the
-#: frames both cover cannot judge it (one pair is matched to the other's unrelated material
-#: there): each pair is judged along the frames it covers itself
-#: (:func:`splicer.stages.recheck.own_mismatch`), the second opinion kept whole when it matches
-#: better there, else left out (0.29.1).  Tuning seeds 0-39, *all*: two such pairs, the synthetic
+#: the body frames both cover, seconds) placed the hands' material elsewhere altogether: kept, it is
+#: kept whole, never combined frame by frame with maps that far away (0.29.1; judged since 0.34.0
+#: by :func:`splicer.stages.recheck.coverage_mismatch`, before by each pair's mismatch along the
+#: frames it covered itself).  Tuning seeds 0-39, *all*: two such pairs, the synthetic
 #: seed 20 (the second opinions mapped the body's first 29 s onto the hands' last 10 s; the
 #: common frames kept them, 22.6 s mean error with half of the wrong frames at full confidence;
 #: now left out, 0.57 s, 94 % flagged) and seed 24 (the first alignment 2.9 s off, the second
 #: opinions right; now kept, 0.027 s); in the other 78 pairs the medians were at most 0.11 s
 #: (benchmarks/HISTORY.md, 0.29.1).
 SECOND_OPINION_RELOCATED_S = 1.0
+#: How a pair's alternative alignments are judged (0.34.0: the partial-overlap check's two, the
+#: first and its second opinions): over the body frames any of them covers, on every side, an
+#: alignment's cost per frame is how unlike the hand moves relative to the forearm in the two takes
+#: over the second around the frame (:func:`splicer.align.wrist.local_rate_mismatch`, the window
+#: :data:`SECOND_OPINION_BLEND_S`: 0 alike, about 2 unrelated) where it covers the frame, at most
+#: :data:`JUDGE_MISMATCH_CAP`, and :data:`JUDGE_UNCOVERED` where it leaves the frame uncovered; the
+#: least mean is kept (:func:`splicer.stages.recheck.coverage_mismatch`).  Before, each was judged
+#: along the frames it covered itself, or the frames all covered: dropping genuine material cost
+#: nothing, and a stretch every candidate covered with unrelated material weighed as much as the
+#: genuine frames (*all*, ZEGGS tuning seed 24: the body's first 26 s have no hands material; the
+#: first alignment matched them to unrelated material and squeezed the genuine start, 3.7 s off;
+#: the shorter overlap's second opinion, right there, was judged on frames all three covered and
+#: left out).  Uncovered counts as a quarter of the way to unrelated: a frame is worth covering when
+#: its material matches better than that (matched frames read 0.05-0.1, frames off by more than
+#: 0.1 s 0.5-1, unrelated material 0.8-3).  Tuning seeds 0-39, *all*: measured at 1.0 (as halfway)
+#: and 0.5, each with and without the cap (benchmarks/HISTORY.md, 0.34.0).
+JUDGE_UNCOVERED = 0.5
+#: ... and the most one covered frame costs: unrelated motion's level.  Where the body's hand hardly
+#: moves in its forearm the ratio reads 5-10 and would outweigh everything else; it says no more
+#: than "unrelated".
+JUDGE_MISMATCH_CAP = 2.0
 #: A third second opinion where the first pair's overlap was located (open ends): the pair aligned
 #: at the heavier weight with the uncovered penalty at this quantile of the costs (not
 #: :data:`UNCOVERED_QUANTILE`), so a shorter overlap costs less: where the hands' genuine material

@@ -57,7 +57,7 @@ def test_both_skip_options_resolve_auto(monkeypatch):
 @pytest.fixture
 def check(monkeypatch):
     """A first pair that skipped both heads, a one-take-ends pair from ``realign``/``finish``,
-    and :func:`own_mismatch` read from a table keyed by which pair it is given."""
+    and :func:`coverage_mismatch` read from a table keyed by which pair it is given."""
     skipped = _pair()
     for r in skipped.values():
         r.alignment.pass1 = _pass([[3, 4], [9, 13]])
@@ -69,7 +69,8 @@ def check(monkeypatch):
         log.note("one-take run")
         return "aligned"
 
-    monkeypatch.setattr(O, "own_mismatch", lambda sides: mismatch["other" if sides is other else "first"])
+    monkeypatch.setattr(O, "coverage_mismatch",
+                        lambda pairs: np.array([mismatch["other" if p is other else "first"] for p in pairs]))
     return SimpleNamespace(skipped=skipped, other=other, calls=calls, mismatch=mismatch, realign=realign,
                            finish=lambda aligned, log: other)
 

@@ -44,7 +44,7 @@ def _pair(**kw):
 @pytest.fixture
 def stand_ins(monkeypatch):
     """``realign`` and ``finish`` that record their calls and return a second pair (shifted by
-    one hands frame; the tempo-matched one by two); ``map_mismatch`` read from a table keyed by
+    one hands frame; the tempo-matched one by two); ``coverage_mismatch`` read from a table keyed by
     which pair it is given (``"first"``, ``"second"``, ``"tempo"``); ``tempo_markers`` a stand-in.
     The frame-by-frame combination is off: these read which pair is kept (the combination's
     tests below switch it on)."""
@@ -65,8 +65,9 @@ def stand_ins(monkeypatch):
     def finish(aligned, log):
         return {"tempo": tempo, "shorter": shorter}.get(aligned, second)
 
-    monkeypatch.setattr(R, "map_mismatch", lambda sides, frames: mismatch[
-        "second" if sides is second else "tempo" if sides is tempo else "shorter" if sides is shorter else "first"])
+    name = lambda sides: ("second" if sides is second else "tempo" if sides is tempo  # noqa: E731
+                          else "shorter" if sides is shorter else "first")
+    monkeypatch.setattr(R, "coverage_mismatch", lambda pairs: np.array([mismatch[name(p)] for p in pairs]))
     monkeypatch.setattr(R, "tempo_markers", lambda sides: blurred)
     return SimpleNamespace(calls=calls, mismatch=mismatch, second=second, tempo=tempo, shorter=shorter,
                            realign=realign, finish=finish)
@@ -156,26 +157,69 @@ def test_a_pair_that_looks_like_two_performances_gets_one_too(stand_ins):
     assert out is stand_ins.second and len(stand_ins.calls) == 2
 
 
-def test_map_mismatch_reads_the_frames_both_cover():
-    """The real rate_mismatch along each side's map, averaged over the sides (a hand whose
-    direction in the forearm's frame swings; the hands take at twice the rate)."""
-    from splicer.align.wrist import rate_mismatch
-
-    t = np.arange(200, dtype=float)
-    body = np.zeros((200, 4, 3))
-    body[:, 0], body[:, 1], body[:, 2] = [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-10.0, 0.0, 0.0]
-    a = 0.6 * np.sin(t / 5.0)
-    body[:, 3] = np.stack([np.cos(a), np.zeros(200), np.sin(a)], axis=1) * 3.0
-    side = SimpleNamespace(markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0),
+def _judge_side(body, hf):
+    return SimpleNamespace(markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0),
                                                    body=SimpleNamespace(points=body), hands=SimpleNamespace(points=body)),
-                           hands_frame=2.0 * t)
-    late = SimpleNamespace(markers=side.markers, hands_frame=2.0 * t + 4.0)  # two body frames late
-    frames = np.arange(20, 180)
-    right = R.map_mismatch({"left": side, "right": side}, frames)
-    assert right < 0.01
-    both = R.map_mismatch({"left": side, "right": late}, frames)
-    want = rate_mismatch(body[frames], body, t[frames] + 2.0, fps=30.0, smooth_s=D.WRIST_SMOOTH_S)
-    assert both == pytest.approx((right + want) / 2) and want > 10 * right
+                           hands_frame=np.asarray(hf, dtype=float))
+
+
+def test_coverage_mismatch_worked_on_stubbed_costs(monkeypatch):
+    """The docstring's example: frames 0-3; A covers all four reading 0.1, 0.1, 3.0 (capped at 2)
+    and 0.2; B covers frames 0-1 reading 0.2 each: A (0.1 + 0.1 + 2 + 0.2) / 4 = 0.6, B (0.2 + 0.2
+    + 0.5 + 0.5) / 4 = 0.35.  A frame A covers without a readable mismatch (NaN) is judged for
+    neither; two sides pool their frames."""
+    reads = {"A": [0.1, 0.1, 3.0, 0.2], "B": [0.2, 0.2, np.nan, np.nan]}
+
+    def local(r, covered, window_s):
+        return np.where(covered, np.asarray(reads[r.name], dtype=float), np.nan)
+
+    monkeypatch.setattr(R, "_local_mismatch", local)
+    side = lambda name, hf: SimpleNamespace(name=name, hands_frame=np.asarray(hf, dtype=float))  # noqa: E731
+    a = {"left": side("A", [0, 1, 2, 3])}
+    b = {"left": side("B", [0, 1, np.nan, np.nan])}
+    np.testing.assert_allclose(R.coverage_mismatch([a, b], uncovered=0.5, cap=2.0), [0.6, 0.35])
+    np.testing.assert_allclose(R.coverage_mismatch([a, b], uncovered=2.0, cap=2.0), [0.6, 1.1])  # dearer gaps
+    reads["A"][3] = np.nan  # not readable where A covers it: frame 3 left out for both
+    np.testing.assert_allclose(R.coverage_mismatch([a, b], uncovered=0.5, cap=2.0), [2.2 / 3, 0.9 / 3])
+    reads["A"][:] = [np.nan] * 4
+    assert np.isnan(R.coverage_mismatch([a, b])).all()  # nothing readable: NaN for all
+    reads["A"][:] = [0.1, 0.1, 3.0, 0.2]
+    two_a = {"left": a["left"], "right": side("A", [0, 1, 2, 3])}
+    two_b = {"left": b["left"], "right": side("B", [0, 1, np.nan, np.nan])}
+    np.testing.assert_allclose(R.coverage_mismatch([two_a, two_b], uncovered=0.5, cap=2.0), [0.6, 0.35])
+
+
+def test_coverage_mismatch_prices_what_each_alignment_leaves_out():
+    """The real local mismatch on a hand swinging in its forearm (the hands take at twice the rate,
+    the truth 2 t; its markers resampled to the common timeline, as the stages make them).  The right map reads about 0; one 3 body frames late reads more.  A map that
+    leaves half the (genuine) frames uncovered pays the uncovered price there, and loses to the
+    right map covering all; against the late map covering all it wins once the lateness costs
+    more than leaving frames out.  Covering unrelated material (the hands' frames reversed over
+    the last 60 body frames) loses to leaving those frames uncovered."""
+    n = 240
+    t = np.arange(n, dtype=float)
+    a = 0.6 * np.sin(t / 5.0) + 0.3 * np.sin(t / 13.0)
+    body = np.zeros((n, 4, 3))
+    body[:, 0], body[:, 1], body[:, 2] = [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-10.0, 0.0, 0.0]
+    body[:, 3] = np.stack([np.cos(a), np.zeros(n), np.sin(a)], axis=1) * 3.0
+    hands = body  # the hands' markers on the common timeline (hands-file frame 2 t is common frame t)
+    side = lambda hf: SimpleNamespace(  # noqa: E731
+        markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0),
+                                body=SimpleNamespace(points=body), hands=SimpleNamespace(points=hands)),
+        hands_frame=np.asarray(hf, dtype=float))
+    right = {"left": side(2.0 * t)}
+    late = {"left": side(np.clip(2.0 * t + 6.0, 0, 2 * n - 2))}
+    half = {"left": side(np.where(t < n // 2, 2.0 * t, np.nan))}
+    cost = R.coverage_mismatch([right, late, half], uncovered=0.5)
+    assert cost[0] < 0.05 and cost[1] > 0.2
+    assert cost[0] < cost[2] == pytest.approx(0.25 + cost[0] / 2, abs=0.05)
+    assert cost[2] < cost[1]  # 3 frames late over every frame costs more than half the frames left out
+    junk = 2.0 * t
+    junk[-60:] = 2.0 * (n - 1) - 2.0 * (t[-60:] - t[-60]) * 3.0  # the last 60 frames run backwards, thrice as fast
+    covers_junk = {"left": side(np.clip(junk, 0, 2 * n - 2))}
+    leaves_it = {"left": side(np.where(t < n - 60, 2.0 * t, np.nan))}
+    c_junk, c_left = R.coverage_mismatch([covers_junk, leaves_it], uncovered=0.5)
+    assert c_left < c_junk
 
 
 def _blend_side(body, hf):
@@ -283,7 +327,7 @@ def test_a_second_opinion_that_moves_the_overlap_is_judged_on_its_own_frames(sta
     out = run(log)
     moved = [w for w in log.warnings if "placed the hands' material elsewhere" in w]
     assert len(moved) == 1 and "(its time maps 2.0 s from the first's" in moved[0] and "weighed 30;" in moved[0]
-    assert "(mismatch 0.700 against 0.600): it is left out" in moved[0]
+    assert "(mismatch 0.700 against 0.600, frame by frame" in moved[0] and moved[0].endswith("it is left out")
     assert log.warnings[0] == "tempo run"  # the kept alignment's own notes, then the one left out
     for s in ("left", "right"):
         assert out[s].alignment is stand_ins.tempo[s].alignment
@@ -296,7 +340,8 @@ def test_a_second_opinion_that_moves_the_overlap_is_judged_on_its_own_frames(sta
     out = run(log)
     assert out is stand_ins.second  # whole: its own maps, its own notes
     assert log.warnings[0] == "second run" and len(log.warnings) == 2
-    assert "(mismatch 0.100 against 0.600): it is kept whole" in log.warnings[1]
+    assert "(mismatch 0.100 against 0.600, frame by frame" in log.warnings[1]
+    assert "it is kept whole (it placed the hands' material elsewhere: its time maps 2.0 s" in log.warnings[1]
 
     stand_ins.mismatch.update({"first": 0.6, "second": 0.7, "tempo": 0.8})
     for r in stand_ins.tempo.values():
@@ -306,17 +351,6 @@ def test_a_second_opinion_that_moves_the_overlap_is_judged_on_its_own_frames(sta
     assert run(log) is first
     assert len(log.warnings) == 3 and log.warnings[0] == "first run"
     assert "tempo-matched" in log.warnings[2] and "(its time maps 5.0 s" in log.warnings[2]
-
-
-def test_own_mismatch_reads_the_frames_a_pair_covers(monkeypatch):
-    seen = []
-    monkeypatch.setattr(R, "map_mismatch", lambda sides, frames: seen.append(frames) or 0.25)
-    pair = _pair()
-    pair["left"].hands_frame[:10] = np.nan
-    pair["right"].hands_frame[50:] = np.nan
-    assert R.own_mismatch(pair) == 0.25 and seen[-1].tolist() == list(range(10, 50))
-    pair["right"].hands_frame[30] = np.nan  # two runs: not read
-    assert np.isnan(R.own_mismatch(pair))
 
 
 def test_a_second_opinion_on_other_frames_altogether_is_judged_on_its_own(stand_ins, monkeypatch):

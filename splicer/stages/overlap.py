@@ -10,9 +10,10 @@ frame, so the other take's extra head was squeezed onto the body (``SpliceOption
 less than covering it, and the path then starts seconds into the genuine material.  So with
 ``both_skip="auto"`` (the default), where the first alignment skipped both at either end
 (:func:`skipped_both`), the pair is aligned again with ``"off"``'s ends, and the alignment along
-which the hand moves relative to the forearm more alike in both takes, each along the body frames
-both its sides cover (:func:`splicer.stages.recheck.own_mismatch`, a signal pass 1 does not read),
-is kept; the rest of the splice (its second opinions) aligns as the kept one did.  Where that
+which the hand moves relative to the forearm more alike in both takes (a signal pass 1 does not
+read), judged frame by frame over the body frames either covers, a frame left uncovered at a fixed
+price (:func:`splicer.stages.recheck.coverage_mismatch`, since 0.34.0; before, each along the frames
+it covered itself), is kept; the rest of the splice (its second opinions) aligns as the kept one did.  Where that
 cannot be read (a hand-only file, optical markers, markers that do not compare:
 :func:`splicer.stages.recheck.forearm_motion_compares`), the pair is aligned on one take's ends from the start
 (:func:`both_skip_options`), as before 0.33.0.  Measured on the ground-truth protocol
@@ -25,9 +26,10 @@ from dataclasses import replace
 
 import numpy as np
 
+from .. import defaults as D
 from ..options import SpliceOptions
 from .log import Log
-from .recheck import forearm_motion_compares, own_mismatch
+from .recheck import coverage_mismatch, forearm_motion_compares
 
 __all__ = ["skipped_both", "both_skip_options", "check_both_skip"]
 
@@ -84,12 +86,13 @@ def check_both_skip(sides: dict, opts: SpliceOptions, log: Log, *, realign, fini
     off = replace(opts, both_skip="off")
     lg = log.aside("one take's ends")
     other = finish(realign(off, lg), lg)
-    both, one = own_mismatch(sides), own_mismatch(other)
+    both, one = coverage_mismatch([sides, other])
     keep_both = bool(np.isfinite(both) and (not np.isfinite(one) or both <= one))
     log.tick("partial-overlap check")
     what = ("the open ends skipped both takes' first (or last) frames at once (the takes overlap partly); along "
             "that alignment the hand moves relative to the forearm {} alike in both takes than along one starting "
-            f"and ending on one take's first and last frames (mismatch {both:.3f} against {one:.3f}): ")
+            f"and ending on one take's first and last frames (mismatch {both:.3f} against {one:.3f}, frame by frame "
+            f"over the body frames either covers, a frame left uncovered counting {D.JUDGE_UNCOVERED:g}): ")
     if keep_both:
         log.warnings.insert(since, what.format("more") + "it is kept")
         return sides, opts, since + 1

@@ -9,20 +9,22 @@ weight can be far better, and elsewhere a little worse.  So the pair is aligned 
 take's phase markers smoothed to the tempo the first maps show (:func:`tempo_markers`,
 :mod:`splicer.align.tempo`: noise matching's smoothing blurs the faster take over more of the
 performance), their time maps made as the first's were (smoothed, refined by the wrist), and the
-pair of maps along which the hand moves relative to the forearm most alike in both takes
-(:func:`splicer.align.wrist.rate_mismatch`: a signal pass 1 does not read, which the arm's noise
-leaves clean) is kept, with a note.  A second opinion that placed the hands' material elsewhere
-altogether (:data:`splicer.defaults.SECOND_OPINION_RELOCATED_S`, 0.29.1) cannot be judged on the
-frames both alignments cover (one of them is matched to the other's unrelated material there): each
-is judged along the frames it covers itself (:func:`own_mismatch`), and kept whole or left out, with
-a note.  Where the first pair's overlap was located (open ends), a third second opinion (0.32.0)
-aligns it with a cheaper uncovered penalty (:data:`splicer.defaults.SHORTER_OPINION_QUANTILE`),
-taken only when it covers clearly less (:func:`covered_frames`): the first may have stretched the
-hands' last genuine material over body frames past its end.  Since 0.28.0 the kept pair's time
-maps are then combined frame by frame from all three (:func:`blend_maps`): each map weighed by
-that mismatch over the second around the frame (:func:`splicer.align.wrist.local_rate_mismatch`),
-as the alignment best along one stretch is not always the best along the next.  Measured on the
-ground-truth protocol (benchmarks/HISTORY.md, 0.18.0, 0.27.0, 0.28.0 and 0.32.0).
+pair of maps along which the hand moves relative to the forearm most alike in both takes (a signal
+pass 1 does not read, which the arm's noise leaves clean) is kept, with a note.  Where the first
+pair's overlap was located (open ends), a third second opinion (0.32.0) aligns it with a cheaper
+uncovered penalty (:data:`splicer.defaults.SHORTER_OPINION_QUANTILE`), a candidate only when it
+covers clearly less (:func:`covered_frames`): the first may have stretched the hands' last genuine
+material over body frames past its end.  Since 0.34.0 the alignments are judged frame by frame over
+every body frame any of them covers (:func:`coverage_mismatch`): the mismatch over the second around
+the frame where an alignment covers it, a fixed price where it does not
+(:data:`splicer.defaults.JUDGE_UNCOVERED`), so that an alignment that drops genuine material, or
+covers unrelated material, pays for it.  A second opinion that placed the hands' material elsewhere
+altogether (:data:`splicer.defaults.SECOND_OPINION_RELOCATED_S`, 0.29.1) is kept whole or left out.
+Since 0.28.0 the kept pair's time maps are then combined frame by frame with the others near it
+(:func:`blend_maps`): each map weighed by that mismatch over the second around the frame
+(:func:`splicer.align.wrist.local_rate_mismatch`), as the alignment best along one stretch is not
+always the best along the next.  Measured on the ground-truth protocol (benchmarks/HISTORY.md,
+0.18.0, 0.27.0, 0.28.0, 0.32.0 and 0.34.0).
 """
 
 from __future__ import annotations
@@ -35,8 +37,8 @@ from .. import defaults as D
 from ..options import SpliceOptions
 from .log import Log
 
-__all__ = ["wants_second_opinion", "map_mismatch", "map_distance_s", "own_mismatch", "tempo_markers",
-           "covered_frames", "forearm_motion_compares", "position_second_opinion", "blend_maps"]
+__all__ = ["wants_second_opinion", "coverage_mismatch", "map_distance_s", "tempo_markers", "covered_frames",
+           "forearm_motion_compares", "position_second_opinion", "blend_maps"]
 
 #: How each second opinion was made, for its notes: a relocated one's, and the kept one's (longer).
 _HOW = {"positions": "", "tempo": ", its markers tempo-matched",
@@ -78,18 +80,66 @@ def forearm_motion_compares(markers: dict) -> bool:
     return True
 
 
-def map_mismatch(sides: dict, frames: np.ndarray) -> float:
-    """Mean over the sides of :func:`splicer.align.wrist.rate_mismatch` along each side's time
-    map over the body frames ``frames`` (a contiguous run every side covers; NaN: too few)."""
-    from ..align.wrist import rate_mismatch
+def coverage_mismatch(pairs: list, *, uncovered: float | None = None, cap: float | None = None,
+                      window_s: float | None = None) -> np.ndarray:
+    """How unlike the hand moves relative to the forearm along each of several alignments of one pair,
+    judged over every body frame any of them covers.
 
-    vals = []
-    for r in sides.values():
-        sp = r.markers.spaces
-        c = sp.hands_to_common(np.asarray(r.hands_frame, dtype=np.float64)[frames])
-        vals.append(rate_mismatch(r.markers.body.points[frames], r.markers.hands.points, c, fps=sp.body_fps,
-                                  smooth_s=D.WRIST_SMOOTH_S))
-    return float(np.mean(vals)) if vals else float("nan")
+    On each side, over the body frames some alignment covers, an alignment's cost per frame is
+    :func:`splicer.align.wrist.local_rate_mismatch` along its map over the ``window_s`` around the
+    frame (0 alike in both takes, about 2 for unrelated motion), at most ``cap``, where it covers
+    the frame, and ``uncovered`` where it does not.  A frame some alignment covers where the body's
+    hand moves too little in its forearm to read the mismatch
+    (:data:`~splicer.defaults.SECOND_OPINION_MIN_MOTION`) is left out for all.  So an alignment that
+    leaves genuine material uncovered pays ``uncovered`` for each frame the others match well, and
+    one that covers unrelated material pays more than one that leaves it uncovered.
+
+    Parameters
+    ----------
+    pairs : list of dict of str -> SideResult
+        The alignments (their ``hands_frame`` and ``markers``; the same sides).
+    uncovered, cap, window_s : float, optional
+        Default :data:`~splicer.defaults.JUDGE_UNCOVERED`, :data:`~splicer.defaults.JUDGE_MISMATCH_CAP`,
+        :data:`~splicer.defaults.SECOND_OPINION_BLEND_S`.
+
+    Returns
+    -------
+    np.ndarray [shape=(len(pairs),)]
+        The mean cost per judged frame over all sides; NaN for all when no frame can be judged.
+
+    Examples
+    --------
+    Worked on costs (the mismatch stubbed): frames 0-3; alignment A covers all four, reading 0.1,
+    0.1, 3.0 (capped at 2) and 0.2; B covers frames 0-1 alone, reading 0.2 each.  A: (0.1 + 0.1 +
+    2 + 0.2) / 4 = 0.6; B: (0.2 + 0.2 + 0.5 + 0.5) / 4 = 0.35 (tests/test_recheck.py).
+    """
+    uncovered = D.JUDGE_UNCOVERED if uncovered is None else uncovered
+    cap = D.JUDGE_MISMATCH_CAP if cap is None else cap
+    window_s = D.SECOND_OPINION_BLEND_S if window_s is None else window_s
+    total, count = np.zeros(len(pairs)), 0
+    for s in pairs[0]:
+        cov = np.stack([np.isfinite(np.asarray(p[s].hands_frame, dtype=np.float64)) for p in pairs])
+        loc = np.stack([_local_mismatch(p[s], cov[k], window_s) for k, p in enumerate(pairs)])
+        judged = cov.any(axis=0) & ~(cov & ~np.isfinite(loc)).any(axis=0)
+        total += np.where(cov, np.minimum(loc, cap), uncovered)[:, judged].sum(axis=1)
+        count += int(judged.sum())
+    return total / count if count else np.full(len(pairs), np.nan)
+
+
+def _local_mismatch(r, covered: np.ndarray, window_s: float) -> np.ndarray:
+    """:func:`splicer.align.wrist.local_rate_mismatch` along one side's map over the body frames it
+    covers, taken in order (a gap inside the covered frames is closed up); NaN elsewhere."""
+    from ..align.wrist import local_rate_mismatch
+
+    mk, sp = r.markers, r.markers.spaces
+    out = np.full(len(covered), np.nan)
+    idx = np.flatnonzero(covered)
+    if len(idx) >= 3:
+        hf = np.asarray(r.hands_frame, dtype=np.float64)[idx]
+        out[idx] = local_rate_mismatch(mk.body.points[idx], mk.hands.points, sp.hands_to_common(hf), fps=sp.body_fps,
+                                       smooth_s=D.WRIST_SMOOTH_S, window_s=window_s,
+                                       min_motion=D.SECOND_OPINION_MIN_MOTION)
+    return out
 
 
 def map_distance_s(sides: dict, other: dict) -> float:
@@ -114,13 +164,6 @@ def map_distance_s(sides: dict, other: dict) -> float:
         d.append(np.abs(sp.hands_to_common(a[ok]) - sp.hands_to_common(b[ok])) / sp.body_fps)
     d = np.concatenate(d) if d else np.zeros(0)
     return float(np.median(d)) if len(d) else float("nan")
-
-
-def own_mismatch(sides: dict) -> float:
-    """:func:`map_mismatch` along the body frames a pair of time maps covers itself (NaN when they
-    are not one run of at least 3 frames both sides cover)."""
-    frames = _common_frames(sides)
-    return map_mismatch(sides, frames) if frames is not None else float("nan")
 
 
 def tempo_markers(sides: dict) -> dict:
@@ -161,7 +204,7 @@ def _common_frames(*pairs) -> np.ndarray | None:
 
 def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, realign, finish, since: int) -> dict:
     """Keep the first pair of time maps or a second opinion's, whichever the hand's motion
-    relative to the forearm matches best along.
+    relative to the forearm matches best along (:func:`coverage_mismatch`).
 
     The second opinions: the pair aligned with the arms' positions weighed
     :data:`~splicer.defaults.POSITION_WEIGHT_RECHECK`; and (:data:`~splicer.defaults.TEMPO_MATCHED`)
@@ -170,7 +213,7 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     aligned at that weight with :data:`~splicer.defaults.SHORTER_OPINION_QUANTILE` as the uncovered
     penalty's quantile, a candidate only when it covers at least
     :data:`~splicer.defaults.SHORTER_OPINION_LESS_S` of body frames per side fewer, and combined
-    with the others only when it is the one kept (:func:`_shorter_whole_or_not`).
+    with the others only when it is the one kept.
 
     Parameters
     ----------
@@ -190,10 +233,11 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     -------
     dict of str -> SideResult
         ``sides`` itself when the pair does not qualify (:func:`wants_second_opinion`) or no
-        second opinion matches better.  A second opinion that placed the hands' material
-        elsewhere (:func:`map_distance_s` over :data:`~splicer.defaults.SECOND_OPINION_RELOCATED_S`)
-        is compared along the frames each pair covers itself (:func:`own_mismatch`): kept whole
-        (not combined) when it matches better there, else left out.
+        second opinion matches better (a tie keeps the first).  A second opinion that placed the
+        hands' material elsewhere (:func:`map_distance_s` over
+        :data:`~splicer.defaults.SECOND_OPINION_RELOCATED_S`) is kept whole (never combined) or
+        left out, with a note.  Otherwise the kept pair's maps are combined frame by frame with
+        the others near the first (:func:`blend_maps`; not a shorter overlap's that is not kept).
     """
     if not wants_second_opinion(sides, opts):
         return sides
@@ -213,59 +257,46 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
         if covered_frames(maps) <= covered_frames(sides) - D.SHORTER_OPINION_LESS_S * fps * len(sides):
             candidates.append(("shorter", maps, fourth))
         log.tick("shorter-overlap second opinion")
-    # another overlap altogether: the frames both cover cannot judge it (one of them is the other's
-    # unrelated material); each pair is judged along its own covered frames, the better kept whole
-    near, elsewhere, moved, first_own = [], [], [], None
-    for label, maps, lg in candidates:
-        apart = map_distance_s(sides, maps)  # NaN: not one body frame in common
-        if apart <= D.SECOND_OPINION_RELOCATED_S:
-            near.append((label, maps, lg))
+    cost = coverage_mismatch([sides] + [maps for _, maps, _ in candidates])
+    best = int(np.argmin(np.where(np.isfinite(cost), cost, np.inf)))  # the first on a tie, or when none is read
+    apart = [map_distance_s(sides, maps) for _, maps, _ in candidates]  # NaN: not one body frame in common
+    moved = [k for k, d in enumerate(apart) if not d <= D.SECOND_OPINION_RELOCATED_S]
+    notes = []  # the relocated ones left out, after the kept alignment's own notes
+    for k in moved:
+        if k + 1 == best:
             continue
-        first_own = own_mismatch(sides) if first_own is None else first_own
-        own = own_mismatch(maps)
-        how = f"weighed {D.POSITION_WEIGHT_RECHECK:g}{_HOW[label]}"
-        where = ("placed the hands' material elsewhere (" + (
-            f"its time maps {apart:.1f} s from the first's, the median over the body frames both cover)"
-            if np.isfinite(apart) else "on body frames the first's maps do not cover)"))
-        better = own < first_own
-        why = (f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions {how}; that "
-               f"alignment {where}, and along the frames each covers the hand moves relative to the forearm "
-               f"{'more' if better else 'less'} alike in both takes along it (mismatch {own:.3f} against "
-               f"{first_own:.3f}): it is {'kept whole' if better else 'left out'}")
-        if better:
-            elsewhere.append((own, label, maps, lg, why))
-        else:
-            moved.append(why)
-    if elsewhere:
-        _, label, maps, lg, why = min(elsewhere, key=lambda x: x[0])
-        del log.warnings[since:]
-        log.warnings.extend(lg.warnings)
-        log.note(why)
-        return maps
-    candidates = _shorter_whole_or_not(sides, near)
-    frames = _common_frames(sides, *(c[1] for c in candidates)) if candidates else None
-    if frames is None:
-        for msg in moved:
-            log.note(msg)
-        return sides
-    first = map_mismatch(sides, frames)
-    scored = [(map_mismatch(maps, frames), label, maps, lg) for label, maps, lg in candidates]
-    best = min(scored, key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
-    again, label, maps, lg = best
+        where = (f"its time maps {apart[k]:.1f} s from the first's, the median over the body frames both cover"
+                 if np.isfinite(apart[k]) else "on body frames the first's maps do not cover")
+        notes.append(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions weighed "
+                     f"{D.POSITION_WEIGHT_RECHECK:g}{_HOW[candidates[k][0]]}; that alignment placed the hands' material "
+                     f"elsewhere ({where}) and matches less well ({_judged(cost[k + 1], cost[0])}): it is left out")
     blend = opts.merge == "timemap" and D.SECOND_OPINION_BLEND_S > 0
-    if again < first:
+    kept = sides
+    if best > 0:
+        label, kept, lg = candidates[best - 1]
+        whole = best - 1 in moved
         del log.warnings[since:]
         log.warnings.extend(lg.warnings)
         log.note(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions weighed "
-                 f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{_HOW_KEPT[label]}; along that alignment the "
-                 f"hand moves relative to the forearm more alike in both takes (mismatch {again:.3f} against "
-                 f"{first:.3f}), and it is kept" + (" as the frame-by-frame combination's base" if blend else ""))
-    for msg in moved:  # after the kept alignment's own notes
+                 f"{D.POSITION_WEIGHT_RECHECK:g} instead of {D.POSITION_WEIGHT_NOISY:g}{_HOW_KEPT[label]}; along that "
+                 f"alignment the hand moves relative to the forearm more alike in both takes "
+                 f"({_judged(cost[best], cost[0])}), and it is kept" + (
+                     f" whole (it placed the hands' material elsewhere: " + (
+                         f"its time maps {apart[best - 1]:.1f} s from the first's)" if np.isfinite(apart[best - 1])
+                         else "on body frames the first's maps do not cover)")
+                     if whole else " as the frame-by-frame combination's base" if blend else ""))
+        if whole:
+            for msg in notes:
+                log.note(msg)
+            return kept
+    for msg in notes:
         log.note(msg)
-    kept = maps if again < first else sides
-    if not blend:
+    near = [maps for k, (label, maps, _) in enumerate(candidates)
+            if k not in moved and (label != "shorter" or maps is kept)]
+    pairs = [kept] + [p for p in [sides] + near if p is not kept]
+    frames = _common_frames(*pairs) if blend and len(pairs) > 1 else None
+    if frames is None:
         return kept
-    pairs = [kept] + [p for p in [sides] + [c[1] for c in candidates] if p is not kept]
     combined = {s: replace(r, hands_frame=blend_maps(pairs, s, frames)) for s, r in kept.items()}
     log.note(f"the {len(pairs)} alignments' time maps are combined frame by frame over body frames {frames[0]}-"
              f"{frames[-1]}, each weighed by how alike the hand moves relative to the forearm along it over the "
@@ -273,19 +304,10 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
     return combined
 
 
-def _shorter_whole_or_not(sides: dict, near: list) -> list:
-    """The near second opinions without the shorter overlap's unless it is the one kept: the
-    best of them on the frames all cover, and better than the first there.  Left out, the rest go on
-    as if it had not run (their common frames are not narrowed by it)."""
-    if not any(label == "shorter" for label, _, _ in near):
-        return near
-    frames = _common_frames(sides, *(c[1] for c in near))
-    if frames is not None:
-        scored = [(map_mismatch(maps, frames), label) for label, maps, _ in near]
-        again, label = min(scored, key=lambda x: x[0] if np.isfinite(x[0]) else np.inf)
-        if label == "shorter" and again < map_mismatch(sides, frames):
-            return near
-    return [c for c in near if c[0] != "shorter"]
+def _judged(cost: float, first: float) -> str:
+    """The judge's figures for a note (:func:`coverage_mismatch`)."""
+    return (f"mismatch {cost:.3f} against {first:.3f}, frame by frame over the body frames any of the alignments "
+            f"covers, a frame left uncovered counting {D.JUDGE_UNCOVERED:g}")
 
 
 def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | None = None,

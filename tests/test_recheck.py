@@ -157,12 +157,6 @@ def test_a_pair_that_looks_like_two_performances_gets_one_too(stand_ins):
     assert out is stand_ins.second and len(stand_ins.calls) == 2
 
 
-def _judge_side(body, hf):
-    return SimpleNamespace(markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0),
-                                                   body=SimpleNamespace(points=body), hands=SimpleNamespace(points=body)),
-                           hands_frame=np.asarray(hf, dtype=float))
-
-
 def test_coverage_mismatch_worked_on_stubbed_costs(monkeypatch):
     """The docstring's example: frames 0-3; A covers all four reading 0.1, 0.1, 3.0 (capped at 2)
     and 0.2; B covers frames 0-1 reading 0.2 each: A (0.1 + 0.1 + 2 + 0.2) / 4 = 0.6, B (0.2 + 0.2
@@ -197,16 +191,8 @@ def test_coverage_mismatch_prices_what_each_alignment_leaves_out():
     more than leaving frames out.  Covering unrelated material (the hands' frames reversed over
     the last 60 body frames) loses to leaving those frames uncovered."""
     n = 240
-    t = np.arange(n, dtype=float)
-    a = 0.6 * np.sin(t / 5.0) + 0.3 * np.sin(t / 13.0)
-    body = np.zeros((n, 4, 3))
-    body[:, 0], body[:, 1], body[:, 2] = [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-10.0, 0.0, 0.0]
-    body[:, 3] = np.stack([np.cos(a), np.zeros(n), np.sin(a)], axis=1) * 3.0
-    hands = body  # the hands' markers on the common timeline (hands-file frame 2 t is common frame t)
-    side = lambda hf: SimpleNamespace(  # noqa: E731
-        markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0),
-                                body=SimpleNamespace(points=body), hands=SimpleNamespace(points=hands)),
-        hands_frame=np.asarray(hf, dtype=float))
+    t, body = _swinging(n)
+    side = lambda hf: _blend_side(body, np.asarray(hf, dtype=float))  # noqa: E731
     right = {"left": side(2.0 * t)}
     late = {"left": side(np.clip(2.0 * t + 6.0, 0, 2 * n - 2))}
     half = {"left": side(np.where(t < n // 2, 2.0 * t, np.nan))}
@@ -222,7 +208,19 @@ def test_coverage_mismatch_prices_what_each_alignment_leaves_out():
     assert c_left < c_junk
 
 
+def _swinging(n):
+    """Frame numbers and markers of a hand swinging in a still forearm (two sines: no two stretches alike)."""
+    t = np.arange(n, dtype=float)
+    a = 0.6 * np.sin(t / 5.0) + 0.3 * np.sin(t / 13.0)
+    body = np.zeros((n, 4, 3))
+    body[:, 0], body[:, 1], body[:, 2] = [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-10.0, 0.0, 0.0]
+    body[:, 3] = np.stack([np.cos(a), np.zeros(n), np.sin(a)], axis=1) * 3.0
+    return t, body
+
+
 def _blend_side(body, hf):
+    """A side whose hands markers are the body's, on the common timeline (hands-file frame 2 t is
+    common frame t)."""
     return SimpleNamespace(markers=SimpleNamespace(spaces=SimpleNamespace(body_fps=30.0, hands_to_common=lambda h: h / 2.0),
                                                    body=SimpleNamespace(points=body), hands=SimpleNamespace(points=body)),
                            hands_frame=hf, alignment="its own")
@@ -234,11 +232,7 @@ def test_blend_maps_takes_each_stretch_from_the_map_right_there():
     throughout.  The combination is right in both stretches; outside the frames every map covers it
     is the first pair's, NaN included; so it is where the body's hand rests."""
     n = 200
-    t = np.arange(n, dtype=float)
-    a = 0.6 * np.sin(t / 5.0) + 0.3 * np.sin(t / 13.0)
-    body = np.zeros((n, 4, 3))
-    body[:, 0], body[:, 1], body[:, 2] = [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-10.0, 0.0, 0.0]
-    body[:, 3] = np.stack([np.cos(a), np.zeros(n), np.sin(a)], axis=1) * 3.0
+    t, body = _swinging(n)
     ramp = np.clip((t - 90.0) / 20.0, 0.0, 1.0)
     early = 2.0 * t + 6.0 * ramp  # right, then late
     late_then_right = 2.0 * t + 6.0 * (1.0 - ramp)

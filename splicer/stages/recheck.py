@@ -127,19 +127,24 @@ def coverage_mismatch(pairs: list, *, uncovered: float | None = None, cap: float
 
 
 def _local_mismatch(r, covered: np.ndarray, window_s: float) -> np.ndarray:
-    """:func:`splicer.align.wrist.local_rate_mismatch` along one side's map over the body frames it
-    covers, taken in order (a gap inside the covered frames is closed up); NaN elsewhere."""
-    from ..align.wrist import local_rate_mismatch
-
-    mk, sp = r.markers, r.markers.spaces
+    """:func:`_mismatch_along` one side's map over the body frames it covers, taken in order (a gap
+    inside the covered frames is closed up); NaN elsewhere."""
     out = np.full(len(covered), np.nan)
     idx = np.flatnonzero(covered)
     if len(idx) >= 3:
-        hf = np.asarray(r.hands_frame, dtype=np.float64)[idx]
-        out[idx] = local_rate_mismatch(mk.body.points[idx], mk.hands.points, sp.hands_to_common(hf), fps=sp.body_fps,
-                                       smooth_s=D.WRIST_SMOOTH_S, window_s=window_s,
-                                       min_motion=D.SECOND_OPINION_MIN_MOTION)
+        out[idx] = _mismatch_along(r.markers, idx, np.asarray(r.hands_frame, dtype=np.float64)[idx], window_s)
     return out
+
+
+def _mismatch_along(markers, frames: np.ndarray, hands_frame: np.ndarray, window_s: float) -> np.ndarray:
+    """:func:`splicer.align.wrist.local_rate_mismatch` over the body frames ``frames``, each shown by
+    the hands-file frame ``hands_frame`` (the judge's and the combination's one reading)."""
+    from ..align.wrist import local_rate_mismatch
+
+    sp = markers.spaces
+    return local_rate_mismatch(markers.body.points[frames], markers.hands.points, sp.hands_to_common(hands_frame),
+                               fps=sp.body_fps, smooth_s=D.WRIST_SMOOTH_S, window_s=window_s,
+                               min_motion=D.SECOND_OPINION_MIN_MOTION)
 
 
 def map_distance_s(sides: dict, other: dict) -> float:
@@ -271,10 +276,9 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
                      f"{D.POSITION_WEIGHT_RECHECK:g}{_HOW[candidates[k][0]]}; that alignment placed the hands' material "
                      f"elsewhere ({where}) and matches less well ({_judged(cost[k + 1], cost[0])}): it is left out")
     blend = opts.merge == "timemap" and D.SECOND_OPINION_BLEND_S > 0
-    kept = sides
+    kept, whole = sides, best - 1 in moved
     if best > 0:
         label, kept, lg = candidates[best - 1]
-        whole = best - 1 in moved
         del log.warnings[since:]
         log.warnings.extend(lg.warnings)
         log.note(f"the arms' motion looked noisy, so the pair was also aligned with the arms' positions weighed "
@@ -285,12 +289,10 @@ def position_second_opinion(sides: dict, opts: SpliceOptions, log: Log, *, reali
                          f"its time maps {apart[best - 1]:.1f} s from the first's)" if np.isfinite(apart[best - 1])
                          else "on body frames the first's maps do not cover)")
                      if whole else " as the frame-by-frame combination's base" if blend else ""))
-        if whole:
-            for msg in notes:
-                log.note(msg)
-            return kept
     for msg in notes:
         log.note(msg)
+    if whole:
+        return kept
     near = [maps for k, (label, maps, _) in enumerate(candidates)
             if k not in moved and (label != "shorter" or maps is kept)]
     pairs = [kept] + [p for p in [sides] + near if p is not kept]
@@ -339,18 +341,13 @@ def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | 
     np.ndarray [shape=(n_body,)]
         Hands-file frames; NaN where the first pair's map is.
     """
-    from ..align.wrist import local_rate_mismatch
-
     window_s = D.SECOND_OPINION_BLEND_S if window_s is None else window_s
     tau = D.SECOND_OPINION_TAU if tau is None else tau
     if not tau > 0:
         raise ValueError(f"tau must be positive, got {tau!r}")
     base = pairs[0][side]
-    mk, sp = base.markers, base.markers.spaces
     maps = np.stack([np.asarray(p[side].hands_frame, dtype=np.float64)[frames] for p in pairs])
-    mis = np.stack([local_rate_mismatch(mk.body.points[frames], mk.hands.points, sp.hands_to_common(h),
-                                        fps=sp.body_fps, smooth_s=D.WRIST_SMOOTH_S, window_s=window_s,
-                                        min_motion=D.SECOND_OPINION_MIN_MOTION) for h in maps])
+    mis = np.stack([_mismatch_along(base.markers, frames, h, window_s) for h in maps])
     unread = ~np.isfinite(mis).all(axis=0)  # the body's hand hardly moves in the window: the first map alone
     mis[:, unread] = np.inf
     mis[0, unread] = 0.0

@@ -138,7 +138,8 @@ SECOND_OPINION_MIN_MOTION = 0.25
 #: common frames kept them, 22.6 s mean error with half of the wrong frames at full confidence;
 #: now left out, 0.57 s, 94 % flagged) and seed 24 (the first alignment 2.9 s off, the second
 #: opinions right; now kept, 0.027 s); in the other 78 pairs the medians were at most 0.11 s
-#: (benchmarks/HISTORY.md, 0.29.1).
+#: (benchmarks/HISTORY.md, 0.29.1).  Frame by frame too (0.35.0): the combination weighs only
+#: the maps within this distance of the one it follows (:func:`splicer.stages.recheck.blend_maps`).
 SECOND_OPINION_RELOCATED_S = 1.0
 #: How a pair's alternative alignments are judged (0.34.0: the partial-overlap check's two, the
 #: first and its second opinions): over the body frames any of them covers, on every side, an
@@ -155,7 +156,10 @@ SECOND_OPINION_RELOCATED_S = 1.0
 #: left out).  Uncovered counts as a quarter of the way to unrelated: a frame is worth covering when
 #: its material matches better than that (matched frames read 0.05-0.1, frames off by more than
 #: 0.1 s 0.5-1, unrelated material 0.8-3).  Tuning seeds 0-39, *all*: measured at 1.0 (as halfway)
-#: and 0.5, each with and without the cap (benchmarks/HISTORY.md, 0.34.0).
+#: and 0.5, each with and without the cap (benchmarks/HISTORY.md, 0.34.0).  Also the most one frame
+#: costs when the frame-by-frame combination chooses which map to follow (0.35.0,
+#: :func:`splicer.stages.recheck.blend_maps`): where every map reads worse, all are as bad as
+#: leaving the frame out, and which one is followed there must not decide the rest.
 JUDGE_UNCOVERED = 0.5
 #: ... and the most one covered frame costs: unrelated motion's level.  Where the body's hand hardly
 #: moves in its forearm the ratio reads 5-10 and would outweigh everything else; it says no more

@@ -260,6 +260,96 @@ def test_blend_maps_takes_each_stretch_from_the_map_right_there():
         R.blend_maps(pairs, "left", frames, window_s=1.0, tau=0.0)
 
 
+def _follow_by_brute_force(maps, cost, cap):
+    """The slow reference for R._follow: every path through the maps, the cheapest allowed one (a
+    tie: the first in lexicographic order, the lower index first)."""
+    import itertools
+
+    k, n = cost.shape
+    c = np.where(np.isfinite(cost), np.minimum(cost, cap), 0.0)
+    best, best_path = np.inf, None
+    for path in itertools.product(range(k), repeat=n):
+        if any(path[t] != path[t - 1] and maps[path[t], t] < maps[path[t - 1], t - 1] for t in range(1, n)):
+            continue
+        total = sum(c[path[t], t] for t in range(n))
+        if total < best - 1e-12:
+            best, best_path = total, path
+    return list(best_path), best
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_follow_against_its_slow_reference(seed):
+    """Random non-decreasing maps crossing one another, random costs with unread frames (NaN) and
+    some over the cap: the same path as trying every one, or one as cheap."""
+    rng = np.random.default_rng(seed)
+    k, n = (3, 7) if seed % 2 else (2, 10)
+    maps = np.cumsum(rng.uniform(0.0, 2.0, (k, n)), axis=1) + rng.uniform(-3.0, 3.0, (k, 1))
+    cost = rng.uniform(0.0, 1.0, (k, n))
+    cost[:, rng.random(n) < 0.2] = np.nan
+    got = R._follow(maps, cost, cap=0.6)
+    want, least = _follow_by_brute_force(maps, cost, 0.6)
+    c = np.where(np.isfinite(cost), np.minimum(cost, 0.6), 0.0)
+    assert sum(c[got[t], t] for t in range(n)) == pytest.approx(least, abs=1e-6)
+    assert all(got[t] == got[t - 1] or maps[got[t], t] >= maps[got[t - 1], t - 1] for t in range(1, n))
+    assert got.tolist() == want
+
+
+def _stub_reads(monkeypatch, reads):
+    """blend_maps' mismatch stubbed: each map's reading chosen by its first frame's hands frame."""
+    def along(markers, frames, hands_frame, window_s):
+        return np.asarray(reads[float(hands_frame[0])], dtype=float)
+
+    monkeypatch.setattr(R, "_mismatch_along", along)
+
+
+def test_blend_maps_does_not_jump_to_a_far_map_at_an_edge(monkeypatch):
+    """Worked on stubbed readings (hands frame 2 t is body frame t, 30 fps: 1 s is 60 hands frames).
+    The first map is right throughout but reads badly over its first 10 frames (2.0, its window
+    clipped at the edge), where a map 4 s ahead reads 0.3 and a map 1 hands frame late 1.5; from
+    frame 10 on they read 0.05, 1.0 and 0.1.  Weighed frame by frame, the map ahead would win the
+    first 10 frames and, made non-decreasing, hold the combination 4 s ahead for 120 frames.  The
+    path followed is the first map's (10 x 0.5 + 90 x 0.05 = 9.5, against 10 x 0.3 + 90 x 0.5 =
+    48 ahead and 10 x 0.5 + 90 x 0.1 = 14 late); the map ahead lies over 1 s from it and is left
+    out; the first and the late one are weighed as before: 2 t + 1.5 / (1 + e^-5) ~ 2 t + 1.0 over
+    the first 10 frames, 2 t + 1.0 / (1 + e^0.5) ~ 2 t + 0.38 after."""
+    n = 100
+    t, body = _swinging(n)
+    first, ahead, late = 2.0 * t, 2.0 * t + 240.0, 2.0 * t + 1.0
+    edge = t < 10
+    _stub_reads(monkeypatch, {0.0: np.where(edge, 2.0, 0.05), 240.0: np.where(edge, 0.3, 1.0),
+                              1.0: np.where(edge, 1.5, 0.1)})
+    pairs = [{"left": _blend_side(body, hf)} for hf in (first, ahead, late)]
+    out = R.blend_maps(pairs, "left", np.arange(n), window_s=1.0, tau=0.1)
+    np.testing.assert_allclose(out[1:10] - first[1:10], 1.0 / (1.0 + np.exp(-5.0)), atol=1e-9)
+    np.testing.assert_allclose(out[10:] - first[10:], 1.0 / (1.0 + np.exp(0.5)), atol=1e-9)
+
+
+def test_blend_maps_follows_the_others_past_a_stuck_first_map(monkeypatch):
+    """The first map sticks at hands frame 40 over body frames 20-79 and then goes on right; two
+    others are right throughout (2 t and 2 t + 1).  Readings: the first 1.0 while stuck, 0.05
+    elsewhere; the others 0.1; over frames 60-79 nothing can be read (the body's hand rests).  The
+    path steps forward to the right map at frame 20 (the first would cost 60 x 0.5 more) and stays
+    there (stepping back to the stuck map is not allowed) until the first rejoins it at frame 80.
+    Over the unread frames the first map lies over 1 s (30 body frames) from the followed one, so
+    the followed one alone is used there, not the first (which, made non-decreasing, would hold the
+    combination at hands frame 118 over frames 60-79)."""
+    n = 120
+    t, body = _swinging(n)
+    first = np.where((t >= 20) & (t < 80), 40.0, 2.0 * t)
+    right, late = 2.0 * t, 2.0 * t + 1.0
+    stuck = (t >= 20) & (t < 80)
+    unread = (t >= 60) & (t < 80)
+    read = lambda r: np.where(unread, np.nan, r)  # noqa: E731
+    _stub_reads(monkeypatch, {0.0: read(np.where(stuck, 1.0, 0.05)), 1.0: read(np.full(n, 0.1)),
+                              0.5: read(np.full(n, 0.1))})
+    right[0] = 0.5  # its own key for the stub (the first frame only)
+    pairs = [{"left": _blend_side(body, hf)} for hf in (first, right, late)]
+    out = R.blend_maps(pairs, "left", np.arange(n), window_s=1.0, tau=0.1)
+    assert np.all(np.diff(out) >= 0)
+    assert np.abs(out - 2.0 * t)[20:80].max() < 1.0  # the stuck first map (up to 118 frames off) left alone
+    assert np.abs(out - 2.0 * t)[80:].max() < 1.0
+
+
 def test_the_pair_kept_is_combined_with_the_others(stand_ins, monkeypatch):
     """With the combination on (the default), the kept pair keeps its other fields and a note says
     so.  The stand-ins' hand swings round a circle at one speed, which looks the same at any shift:
@@ -447,3 +537,27 @@ def test_the_judge_on_the_protocol():
         errs.append(np.abs(e[np.isfinite(e)]))
     errs = np.concatenate(errs)
     assert errs.mean() < 0.05 and np.percentile(errs, 95) < 0.1  # measured 0.025 (0.081)
+
+
+def test_the_combination_on_the_protocol():
+    """Synthetic *all*, seed 409 (drawn after 0.34.0's choices): the hands' genuine material starts
+    at body frame 750.  The position-weighed second opinion is kept (0.054 s mean, 0.105 s 95th
+    percentile on the left), but weighed frame by frame (0.28.0-0.34.0) the first alignment's map,
+    2-3 s ahead, won body frames 783-794, where the kept map's window covered the hands' extra
+    material and read 2-3; made non-decreasing the combination then stayed up to 2.4 s ahead for
+    two seconds (0.228 s mean, 2.19 s 95th percentile); the spliced result erred 0.109 (0.80) s on
+    the left, 0.142 (1.18) s on the right.  Following the path of least mismatch that never steps
+    back (0.35.0), that map is not taken there: measured 0.019 (0.068) and 0.025 (0.092) s."""
+    from splicer import splice
+    from splicer.evaluation.scenario_types import alignment_error_s, scenario
+    from splicer.evaluation.scenarios import make_scenario
+    from splicer.evaluation.synth import make_gesture_take
+
+    take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
+    sep = make_scenario(take, scenario("all"), rng=np.random.default_rng(409))
+    res = splice(sep.body, sep.hands)
+    assert any("combined frame by frame" in w for w in res.report.warnings)
+    for r in res.sides.values():
+        e = np.abs(alignment_error_s(sep, np.asarray(r.hands_frame, dtype=np.float64)))
+        e = e[np.isfinite(e)]
+        assert e.mean() < 0.05 and np.percentile(e, 95) < 0.2

@@ -23,8 +23,12 @@ altogether (:data:`splicer.defaults.SECOND_OPINION_RELOCATED_S`, 0.29.1) is kept
 Since 0.28.0 the kept pair's time maps are then combined frame by frame with the others near it
 (:func:`blend_maps`): each map weighed by that mismatch over the second around the frame
 (:func:`splicer.align.wrist.local_rate_mismatch`), as the alignment best along one stretch is not
-always the best along the next.  Measured on the ground-truth protocol (benchmarks/HISTORY.md,
-0.18.0, 0.27.0, 0.28.0, 0.32.0 and 0.34.0).
+always the best along the next.  Since 0.35.0 the combination first chooses which map to follow
+at each frame, the path of least mismatch that never steps back to a map behind (:func:`_follow`),
+and weighs only the maps near it: a map seconds away that reads better for a few frames (where
+the followed one's window reaches unrelated material) no longer pulls the non-decreasing
+combination seconds ahead.  Measured on the ground-truth protocol (benchmarks/HISTORY.md, 0.18.0,
+0.27.0, 0.28.0, 0.32.0, 0.34.0 and 0.35.0).
 """
 
 from __future__ import annotations
@@ -316,15 +320,21 @@ def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | 
                tau: float | None = None) -> np.ndarray:
     """One side's time map combined frame by frame from several alignments' maps.
 
-    Over ``frames`` (a run every alignment covers), each map weighed by
-    ``exp(-(mismatch - least) / tau)``, its :func:`splicer.align.wrist.local_rate_mismatch` over
-    ``window_s`` against the least of them at that frame.  Where the body's hand moves in its
-    forearm under :data:`~splicer.defaults.SECOND_OPINION_MIN_MOTION` of the median window's motion
-    (a rest, a hold: the mismatch is a ratio to that motion and cannot be read there), and outside
-    ``frames``, the first pair's map alone.  A weighted mean of non-decreasing maps is
-    non-decreasing, and stays within the pins' tolerance every map holds; it is made
-    non-decreasing over the whole covered span again where it meets the first pair's map at the
-    run's edges.
+    Over ``frames`` (a run every alignment covers), each map's
+    :func:`splicer.align.wrist.local_rate_mismatch` over ``window_s`` around each frame is read.
+    First, which map to follow (:func:`_follow`, since 0.35.0): the one path through the maps,
+    never stepping back to a map behind the one followed, whose summed mismatch is least, each
+    frame's at most :data:`~splicer.defaults.JUDGE_UNCOVERED` (where every map reads worse than
+    that, all are as bad as leaving the frame out, and which one is followed there does not decide
+    the rest).  Then the maps within :data:`~splicer.defaults.SECOND_OPINION_RELOCATED_S` of the
+    followed one are weighed by ``exp(-(mismatch - least) / tau)`` (a map further away is another
+    reading of the take, not a correction to blend in).  Where the body's hand moves in its forearm
+    under :data:`~splicer.defaults.SECOND_OPINION_MIN_MOTION` of the median window's motion (a
+    rest, a hold: the mismatch is a ratio to that motion and cannot be read there), the first
+    pair's map alone, or the followed one's where the first lies further away; outside
+    ``frames``, the first pair's map.  A weighted mean of non-decreasing maps is non-decreasing,
+    and stays within the pins' tolerance every map holds; it is made non-decreasing over the whole
+    covered span again where the followed map changes and at the run's edges.
 
     Parameters
     ----------
@@ -346,14 +356,69 @@ def blend_maps(pairs: list, side: str, frames: np.ndarray, *, window_s: float | 
     if not tau > 0:
         raise ValueError(f"tau must be positive, got {tau!r}")
     base = pairs[0][side]
+    sp = base.markers.spaces
     maps = np.stack([np.asarray(p[side].hands_frame, dtype=np.float64)[frames] for p in pairs])
     mis = np.stack([_mismatch_along(base.markers, frames, h, window_s) for h in maps])
-    unread = ~np.isfinite(mis).all(axis=0)  # the body's hand hardly moves in the window: the first map alone
+    common = sp.hands_to_common(maps)
+    followed = _follow(common, mis, cap=D.JUDGE_UNCOVERED)
+    cols = np.arange(len(frames))
+    near = np.abs(common - common[followed, cols]) <= D.SECOND_OPINION_RELOCATED_S * sp.body_fps
+    unread = ~np.isfinite(mis).all(axis=0)  # the body's hand hardly moves in the window
+    mis[~near] = np.inf
+    alone = np.where(near[0], 0, followed)[unread]  # there the first map alone, or the followed one when far
     mis[:, unread] = np.inf
-    mis[0, unread] = 0.0
+    mis[alone, np.flatnonzero(unread)] = 0.0
     w = np.exp(-(mis - mis.min(axis=0)) / tau)
     out = np.array(base.hands_frame, dtype=np.float64)
     out[frames] = (w * maps).sum(axis=0) / w.sum(axis=0)
     ok = np.isfinite(out)
     out[ok] = np.maximum.accumulate(out[ok])
     return out
+
+
+def _follow(maps: np.ndarray, cost: np.ndarray, *, cap: float) -> np.ndarray:
+    """Which of several time maps to follow at each frame: the path of least summed cost, each
+    frame's ``cost`` at most ``cap`` (NaN: 0 for all), that never steps to a map lying behind the
+    one followed the frame before (a step back would hold the non-decreasing combination still
+    until that map caught up); a tie keeps the lower index.
+
+    Parameters
+    ----------
+    maps : np.ndarray [shape=(k, n)]
+        The maps, non-decreasing along each row (any unit).
+    cost : np.ndarray [shape=(k, n)]
+
+    Returns
+    -------
+    np.ndarray [shape=(n,), dtype=int]
+
+    Examples
+    --------
+    Map 1 runs ahead of map 0 and matches better from frame 2: it is followed from there (summed
+    cost 0).  Had it run behind, stepping to it would be a step back: map 0 throughout (6) is
+    cheaper than map 1 throughout (10).
+
+    >>> ahead = np.array([[0., 1, 2, 3, 4], [10, 11, 12, 13, 14]])
+    >>> cost = np.array([[0., 0, 2, 2, 2], [5, 5, 0, 0, 0]])
+    >>> _follow(ahead, cost, cap=5.0).tolist()
+    [0, 0, 1, 1, 1]
+    >>> _follow(ahead - [[0.], [20.]], cost, cap=5.0).tolist()
+    [0, 0, 0, 0, 0]
+    """
+    k, n = cost.shape
+    c = np.where(np.isfinite(cost), np.minimum(cost, cap), 0.0)
+    c[1:] += 1e-9 * np.arange(1, k)[:, None]  # a tie keeps the lower index
+    acc = c[:, 0].copy()
+    back = np.zeros((k, n), dtype=np.int64)
+    stay = np.eye(k, dtype=bool)
+    cols = np.arange(k)
+    for t in range(1, n):
+        allowed = (maps[None, :, t] >= maps[:, None, t - 1]) | stay  # [from, to]
+        tot = np.where(allowed, acc[:, None], np.inf)
+        back[:, t] = np.argmin(tot, axis=0)
+        acc = tot[back[:, t], cols] + c[:, t]
+    state = np.empty(n, dtype=np.int64)
+    state[-1] = int(np.argmin(acc))
+    for t in range(n - 1, 0, -1):
+        state[t - 1] = back[state[t], t]
+    return state

@@ -159,7 +159,9 @@ SECOND_OPINION_RELOCATED_S = 1.0
 #: and 0.5, each with and without the cap (benchmarks/HISTORY.md, 0.34.0).  Also the most one frame
 #: costs when the frame-by-frame combination chooses which map to follow (0.35.0,
 #: :func:`splicer.stages.recheck.blend_maps`): where every map reads worse, all are as bad as
-#: leaving the frame out, and which one is followed there must not decide the rest.
+#: leaving the frame out, and which one is followed there must not decide the rest.  And (0.36.0)
+#: the ratio rules at the coverage's edges leave a stretch covered whose median mismatch is under
+#: it (:func:`splicer.stages.coverage.uncover_unsure_edges`).
 JUDGE_UNCOVERED = 0.5
 #: ... and the most one covered frame costs: unrelated motion's level.  Where the body's hand hardly
 #: moves in its forearm the ratio reads 5-10 and would outweigh everything else; it says no more

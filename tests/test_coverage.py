@@ -278,11 +278,15 @@ def test_hands_worse_than_backwards_at_the_body_start_are_uncovered(monkeypatch)
                for w in on.report["warnings"])
 
 
-def test_uncover_unmatched_edges_stage_on_the_sample():
+def test_uncover_unmatched_edges_stage_on_the_sample(monkeypatch):
     """The stage with the check's rows saying the hands' material next to an uncovered start is
-    no better than the hands played backwards: taken, with its own note; off with
+    no better than the hands played backwards: taken, with its own note, where the hand's motion
+    relative to the forearm reads unalike there too (stubbed at 1.5, unrelated material's level);
+    kept, with a note, where it reads alike (the sample's own material: it is genuine); off with
     ``unmatched_edge_s=0``, and never without the check's rows."""
     from dataclasses import replace
+
+    import splicer.stages.recheck as R
 
     from splicer import splice
     from splicer.align.evidence import Evidence
@@ -300,6 +304,11 @@ def test_uncover_unmatched_edges_stage_on_the_sample():
     rows[:50] = 9.0  # body frames 0-149 cost 90 % of the backwards pass (9 over 10)
     ev = Evidence(float(rows.sum()), 2010.0, 10.0, rows=rows, backwards_rows=np.full(201, 10.0))
     side = replace(r, hands_frame=hf, alignment=replace(r.alignment, covered=(40, n - 1), confidence=conf, evidence=ev))
+    log = Log()
+    alike = uncover_unsure_edges({"left": side}, SpliceOptions(), log)["left"]  # the sample's own mismatch
+    assert alike is side
+    assert any("40-" in w and "it stays covered" in w for w in log.warnings)
+    monkeypatch.setattr(R, "side_mismatch", lambda r, **kw: np.where(np.isfinite(r.hands_frame), 1.5, np.nan))
     log = Log()
     out = uncover_unsure_edges({"left": side}, SpliceOptions(), log)["left"]
     first = int(np.flatnonzero(np.isfinite(out.hands_frame))[0])
@@ -458,3 +467,27 @@ def test_edge_rules_against_a_slow_reference():
         got = unsure_edges(hf, est, fps, min_s=min_s, error_s=0.2, pinned=sorted(pinned))
         want = _edges_reference(hf, est > 0.2, fps, min_s, pinned, 0.0)
         np.testing.assert_array_equal(got, want)
+
+
+def test_alike_material_stays_covered_on_the_protocol():
+    """Synthetic *all*, seed 101: the hands' genuine material covers body frames 20-1403.  Over
+    body frames 0-334 the path cost more than with the hands take played backwards (the second
+    performance's arm noise at a slow start), and 0.25.0-0.35.0 took them as uncovered, although
+    aligned within 0.01 s: 7.5 degrees of finger error.  Along them the hand moves relative to the
+    forearm alike in both takes (median mismatch 0.02-0.06), so since 0.36.0 they stay covered,
+    with a note."""
+    from splicer import splice
+    from splicer.evaluation.scenario_types import alignment_error_s, scenario
+    from splicer.evaluation.scenarios import make_scenario
+    from splicer.evaluation.synth import make_gesture_take
+
+    take = make_gesture_take(60.0, 30.0, np.random.default_rng(0))
+    sep = make_scenario(take, scenario("all"), rng=np.random.default_rng(101))
+    assert np.flatnonzero(sep.covered)[0] == 20
+    res = splice(sep.body, sep.hands)
+    assert sum("it stays covered" in w for w in res.report.warnings) == 2  # one per side
+    for r in res.sides.values():
+        hf = np.asarray(r.hands_frame, dtype=np.float64)
+        assert np.isfinite(hf[20:335]).all()
+        e = np.abs(alignment_error_s(sep, hf)[20:335])
+        assert np.median(e) < 0.05

@@ -31,8 +31,8 @@ from dataclasses import replace
 import numpy as np
 
 from ..align.risk import distance_to_uncovered
-from ..defaults import (COVERAGE_EDGE_S, UNMATCHED_EDGE_S, UNMATCHED_OWN_MARGIN_S, UNMATCHED_OWN_RATIO,
-                        UNMATCHED_RATIO, UNMATCHED_WINDOW_S, UNSURE_EDGE_ERROR_S, UNSURE_EDGE_S)
+from ..defaults import (COVERAGE_EDGE_S, JUDGE_UNCOVERED, UNMATCHED_EDGE_S, UNMATCHED_OWN_MARGIN_S,
+                        UNMATCHED_OWN_RATIO, UNMATCHED_RATIO, UNMATCHED_WINDOW_S, UNSURE_EDGE_ERROR_S, UNSURE_EDGE_S)
 from ..runs import true_runs
 
 __all__ = ["coverage_edges", "mark_coverage_edges", "unsure_edges", "unmatched_edges", "unmatched_body_ends",
@@ -339,25 +339,35 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
         if take.any():
             notes.append((take, f"the alignment there is unsure throughout (estimated error over {error_s:g} s for at "
                                 f"least {min_s:g} s)"))
-        ev, own = r.alignment.evidence, None
+        ev, own, alike = r.alignment.evidence, None, []
         ratio = None if ev is None or not unmatched_s else ev.local_ratio(len(hf), fps, UNMATCHED_WINDOW_S)
         hf = np.where(take, np.nan, hf)  # the unsure stretches out: the unmatched ones start where they stop
         if ratio is not None:
+            from .recheck import forearm_motion_compares, side_mismatch
+
+            mis = side_mismatch(r) if forearm_motion_compares({s: r.markers}) else None
             more = unmatched_edges(hf, ratio, fps, min_s=unmatched_s, ratio_above=UNMATCHED_RATIO,
                                    beyond_s=COVERAGE_EDGE_S, pinned=pinned)
+            more = _unless_alike(more, mis, alike)
             if more.any():
                 take = take | more
                 hf = np.where(more, np.nan, hf)
                 notes.append((more, f"the hands' material matched there fits the body no better than the hands take "
                                     f"played backwards (over {100 * UNMATCHED_RATIO:.0f}% of its cost for at least "
                                     f"{unmatched_s:g} s)"))
-            own = unmatched_body_ends(hf, ratio, fps, min_s=unmatched_s, pinned=pinned)
+            own = _unless_alike(unmatched_body_ends(hf, ratio, fps, min_s=unmatched_s, pinned=pinned), mis, alike)
             if own.any():
                 take = take | own
                 hf = np.where(own, np.nan, hf)
                 notes.append((own, f"the hands' material matched there fits the body worse than the hands take played "
                                    f"backwards (over {100 * UNMATCHED_OWN_RATIO:.0f}% of its cost on the whole, for at least "
                                    f"{unmatched_s:g} s)"))
+        if log is not None:
+            for a, b, m in alike:
+                log.note(f"{s} side: the hands' material matched to body frames {a}-{b} ({(b - a + 1) / fps:.1f} s) fits "
+                         f"the body no better than the hands take played backwards, but the hand moves relative to "
+                         f"the forearm alike in both takes there (mismatch {m:.2f}, the median; under "
+                         f"{JUDGE_UNCOVERED:g}): it stays covered")
         if not take.any():
             out[s] = r
             continue
@@ -372,6 +382,32 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
                 where = "at the body's own start or end" if mask is own else "next to the uncovered ones"
                 log.note(f"{s} side: body frames {spans} {where} are taken as uncovered: {why}, "
                          "as where the hands take holds material from outside the body's performance")
+    return out
+
+
+def _unless_alike(mask: np.ndarray, mismatch, kept: list) -> np.ndarray:
+    """``mask`` without its runs along which the hand moves relative to the forearm alike in both
+    takes (the median of ``mismatch``'s readable frames under :data:`~splicer.defaults.JUDGE_UNCOVERED`:
+    material worth covering, as the judge prices it); each run kept is appended to ``kept`` as
+    ``(first, last, median)``.  ``mismatch`` None (the signal does not compare): ``mask`` as it is.
+
+    Examples
+    --------
+    >>> kept = []
+    >>> mask = np.array([1, 1, 1, 0, 1, 1], dtype=bool)
+    >>> _unless_alike(mask, np.array([0.1, np.nan, 0.2, 0.0, 0.9, 1.2]), kept).astype(int).tolist()
+    [0, 0, 0, 0, 1, 1]
+    >>> [(a, b, round(m, 2)) for a, b, m in kept]
+    [(0, 2, 0.15)]
+    """
+    if mismatch is None or not mask.any():
+        return mask
+    out = mask.copy()
+    for a, b in zip(*true_runs(mask)):
+        read = mismatch[a:b][np.isfinite(mismatch[a:b])]
+        if len(read) and np.median(read) < JUDGE_UNCOVERED:
+            out[a:b] = False
+            kept.append((int(a), int(b - 1), float(np.median(read))))
     return out
 
 

@@ -41,7 +41,7 @@ from .. import defaults as D
 from ..options import SpliceOptions
 from .log import Log
 
-__all__ = ["wants_second_opinion", "coverage_mismatch", "map_distance_s", "tempo_markers", "covered_frames",
+__all__ = ["wants_second_opinion", "coverage_mismatch", "side_mismatch", "map_distance_s", "tempo_markers", "covered_frames",
            "forearm_motion_compares", "position_second_opinion", "blend_maps"]
 
 #: How each second opinion was made, for its notes: a relocated one's, and the kept one's (longer).
@@ -128,6 +128,16 @@ def coverage_mismatch(pairs: list, *, uncovered: float | None = None, cap: float
         total += np.where(cov, np.minimum(loc, cap), uncovered)[:, judged].sum(axis=1)
         count += int(judged.sum())
     return total / count if count else np.full(len(pairs), np.nan)
+
+
+def side_mismatch(r, *, window_s: float | None = None) -> np.ndarray:
+    """How unlike the hand moves relative to the forearm in both takes along one side's own time
+    map, per body frame (:func:`splicer.align.wrist.local_rate_mismatch` over the ``window_s``
+    around the frame, default :data:`~splicer.defaults.SECOND_OPINION_BLEND_S`: 0 alike, about 2
+    unrelated); NaN where the map leaves the frame uncovered or the body's hand moves too little
+    in its forearm to read it.  Meaningful only where :func:`forearm_motion_compares`."""
+    window_s = D.SECOND_OPINION_BLEND_S if window_s is None else window_s
+    return _local_mismatch(r, np.isfinite(np.asarray(r.hands_frame, dtype=np.float64)), window_s)
 
 
 def _local_mismatch(r, covered: np.ndarray, window_s: float) -> np.ndarray:

@@ -343,9 +343,7 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
         ratio = None if ev is None or not unmatched_s else ev.local_ratio(len(hf), fps, UNMATCHED_WINDOW_S)
         hf = np.where(take, np.nan, hf)  # the unsure stretches out: the unmatched ones start where they stop
         if ratio is not None:
-            from .recheck import forearm_motion_compares, side_mismatch
-
-            mis = side_mismatch(r) if forearm_motion_compares({s: r.markers}) else None
+            mis = _side_mismatch_once(r)  # read only where a ratio rule would take a stretch
             more = unmatched_edges(hf, ratio, fps, min_s=unmatched_s, ratio_above=UNMATCHED_RATIO,
                                    beyond_s=COVERAGE_EDGE_S, pinned=pinned)
             more = _unless_alike(more, mis, alike)
@@ -385,22 +383,38 @@ def uncover_unsure_edges(sides: dict, opts=None, log=None, *, error_s: float = U
     return out
 
 
-def _unless_alike(mask: np.ndarray, mismatch, kept: list) -> np.ndarray:
+def _side_mismatch_once(r):
+    """A call that reads the side's hand-in-forearm mismatch (:func:`splicer.stages.recheck.side_mismatch`)
+    the first time it is made and returns it again after; None where that signal does not compare
+    (:func:`splicer.stages.recheck.forearm_motion_compares`)."""
+    from functools import cache
+
+    from .recheck import forearm_motion_compares, side_mismatch
+
+    return cache(lambda: side_mismatch(r) if forearm_motion_compares({"side": r.markers}) else None)
+
+
+def _unless_alike(mask: np.ndarray, mismatch_of, kept: list) -> np.ndarray:
     """``mask`` without its runs along which the hand moves relative to the forearm alike in both
-    takes (the median of ``mismatch``'s readable frames under :data:`~splicer.defaults.JUDGE_UNCOVERED`:
-    material worth covering, as the judge prices it); each run kept is appended to ``kept`` as
-    ``(first, last, median)``.  ``mismatch`` None (the signal does not compare): ``mask`` as it is.
+    takes (the median of the readable frames of ``mismatch_of()`` under
+    :data:`~splicer.defaults.JUDGE_UNCOVERED`: material worth covering, as the judge prices it);
+    each run kept is appended to ``kept`` as ``(first, last, median)``.  ``mismatch_of`` is called
+    only when ``mask`` has a run; it returning None (the signal does not compare): ``mask`` as it is.
 
     Examples
     --------
     >>> kept = []
     >>> mask = np.array([1, 1, 1, 0, 1, 1], dtype=bool)
-    >>> _unless_alike(mask, np.array([0.1, np.nan, 0.2, 0.0, 0.9, 1.2]), kept).astype(int).tolist()
+    >>> reads = np.array([0.1, np.nan, 0.2, 0.0, 0.9, 1.2])
+    >>> _unless_alike(mask, lambda: reads, kept).astype(int).tolist()
     [0, 0, 0, 0, 1, 1]
     >>> [(a, b, round(m, 2)) for a, b, m in kept]
     [(0, 2, 0.15)]
     """
-    if mismatch is None or not mask.any():
+    if not mask.any():
+        return mask
+    mismatch = mismatch_of()
+    if mismatch is None:
         return mask
     out = mask.copy()
     for a, b in zip(*true_runs(mask)):

@@ -145,6 +145,16 @@ def hold_band(band, held):
     that follows a corner-cutting guide across the hold may otherwise shift past it).  Holds
     that hold a pin's row are left as they are (the pin's window bounds that row).
 
+    The rows around a hold are widened too, over one band width (``band.width`` rows, at least
+    the hold's length) either side, up to a pinned row: after the hold each row's first column
+    is at most the hold's first column plus the rows since the hold (a path that leaves the
+    hold on its lowest column can go on at the hands' own rate), before it each row's last
+    column at least the hold's last column minus the rows to the hold (a path can reach the
+    hold's highest column).  A guide that cuts the hold's corner runs behind the true map
+    before the hold and ahead of it after; its band then missed the truth for up to a second
+    after a hold (ZEGGS *all*, tuning seed 24: the map 0.5 s off over 4 s; benchmarks/HISTORY.md,
+    0.37.0).
+
     Parameters
     ----------
     band : Band
@@ -162,7 +172,7 @@ def hold_band(band, held):
     >>> b = Band(5, 9, 2.0, np.array([0, 1, 2, 3, 4]), np.array([2, 3, 4, 6, 8]))
     >>> w, h = hold_band(b, held_rows(5, [(1, 3)]))
     >>> w.lo.tolist(), w.hi.tolist()
-    ([0, 1, 1, 1, 4], [2, 6, 6, 6, 8])
+    ([0, 1, 1, 1, 2], [5, 6, 6, 6, 8])
     """
     from .band import Band
 
@@ -177,6 +187,15 @@ def hold_band(band, held):
             continue
         lo[a:b + 1] = lo[a]
         hi[a:b + 1] = hi[b]
+        reach = max(int(round(band.width)), b - a + 1)
+        for i in range(b + 1, min(b + reach, band.n - 1) + 1):  # after: from the hold's first column on
+            if i in pinned:
+                break
+            lo[i] = min(lo[i], lo[a] + (i - b))
+        for i in range(a - 1, max(a - reach, 0) - 1, -1):  # before: up to the hold's last column
+            if i in pinned:
+                break
+            hi[i] = max(hi[i], hi[b] - (a - i))
     if not held.any():
         return band, None
     return Band(band.n, band.m, band.width, lo, hi, band.constraints, band.open_begin, band.open_end), held

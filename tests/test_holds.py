@@ -75,6 +75,31 @@ def test_hold_band_reaches_one_band_width_around_the_hold():
     assert w.hi[12:].tolist() == b.hi[12:].tolist() and w.lo[:10].tolist() == b.lo[:10].tolist()
 
 
+def test_hold_band_on_the_whole_matrix():
+    """A full band (width ``inf``: the open-ended pass of a body at 10 fps or less searches the
+    whole matrix at full rate) keeps its columns; only the rows are held."""
+    from splicer.align.band import full_band
+
+    b = full_band(12, 20)
+    w, h = hold_band(b, held_rows(12, [(3, 6)]))
+    assert w.lo.tolist() == [0] * 12 and w.hi.tolist() == [19] * 12
+    np.testing.assert_array_equal(h, held_rows(12, [(3, 6)]))
+
+
+def test_a_body_at_10_fps_that_holds_splices():
+    """A body at 10 fps is located at its full rate over the whole matrix (a band of width
+    ``inf``); with a hold, 0.37.0 raised OverflowError there."""
+    from splicer import splice
+    from splicer.evaluation.scenarios import make_scenario, scenario
+    from splicer.evaluation.synth import make_gesture_take
+
+    take = make_gesture_take(30.0, 10.0, np.random.default_rng(0))
+    sep = make_scenario(take, scenario("pause-body"), rng=np.random.default_rng(0))
+    r = splice(sep.body, sep.hands)
+    assert any("holds still over frames" in w for w in r.report.warnings)
+    assert all(np.isfinite(r.sides[s].hands_frame).all() for s in r.sides)
+
+
 def test_a_hold_with_a_pin_is_left_to_the_pin():
     band = make_band(40, 40, 6.0, [Constraint(20, 20, 1)])
     w, h = hold_band(band, held_rows(40, [(18, 24), (30, 34)]))

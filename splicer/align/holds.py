@@ -146,7 +146,7 @@ def hold_band(band, held):
     that hold a pin's row are left as they are (the pin's window bounds that row).
 
     The rows around a hold are widened too, over one band width (``band.width`` rows, at least
-    the hold's length) either side, up to a pinned row: after the hold each row's first column
+    the hold's length, at most the body's) either side, up to a pinned row: after the hold each row's first column
     is at most the hold's first column plus the rows since the hold (a path that leaves the
     hold on its lowest column can go on at the hands' own rate), before it each row's last
     column at least the hold's last column minus the rows to the hold (a path can reach the
@@ -187,7 +187,7 @@ def hold_band(band, held):
             continue
         lo[a:b + 1] = lo[a]
         hi[a:b + 1] = hi[b]
-        reach = max(int(round(band.width)), b - a + 1)
+        reach = max(int(round(min(band.width, band.n))), b - a + 1)  # a full band's width is inf
         for i in range(b + 1, min(b + reach, band.n - 1) + 1):  # after: from the hold's first column on
             if i in pinned:
                 break

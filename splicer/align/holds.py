@@ -146,11 +146,11 @@ def hold_band(band, held):
     that hold a pin's row are left as they are (the pin's window bounds that row).
 
     The rows around a hold are widened too, over one band width (``band.width`` rows, at least
-    the hold's length, at most the body's) either side, up to a pinned row: after the hold each row's first column
-    is at most the hold's first column plus the rows since the hold (a path that leaves the
-    hold on its lowest column can go on at the hands' own rate), before it each row's last
-    column at least the hold's last column minus the rows to the hold (a path can reach the
-    hold's highest column).  A guide that cuts the hold's corner runs behind the true map
+    the hold's length, at most the body's) either side, up to a pinned row: after the hold each
+    row's first column is at most the hold's first column plus the rows since the hold (a path
+    that leaves the hold on its lowest column can go on at the hands' own rate), before it each
+    row's last column at least the hold's last column minus the rows to the hold (a path can
+    reach the hold's highest column).  A guide that cuts the hold's corner runs behind the true map
     before the hold and ahead of it after; its band then missed the truth for up to a second
     after a hold (ZEGGS *all*, tuning seed 24: the map 0.5 s off over 4 s; benchmarks/HISTORY.md,
     0.37.0).

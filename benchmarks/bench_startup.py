@@ -11,7 +11,9 @@ compiled first (as an installed package has it):
 * ``import Pillow``: what ``--plot`` pays before drawing anything (0.6.0 and before drew with
   matplotlib: ``import matplotlib`` is printed beside it for that comparison);
 * ``first run`` (``--first``): the warm-run command with ``NUMBA_CACHE_DIR`` set to a new, empty
-  folder, so every kernel the run calls is compiled (once; min over ``--first-repeat`` runs);
+  folder, so every kernel the run calls is compiled (once; min over ``--first-repeat`` runs), with
+  the helper process that compiles the kernels from the end (``splicer._warmup``), and beside it,
+  interleaved, the same without the helper (``SPLICER_NO_WARMUP=1``: one process compiles them all);
 * ``on splice-server``: the warm-run command as the ``splice`` script runs it
   (:func:`splicer.server_client.main`) with a ``splice-server`` running (its own socket in a
   temporary folder); between runs the script waits until the server's spare run is ready again,
@@ -124,11 +126,16 @@ def main(argv=None) -> int:
             subprocess.run([py, "-m", "splicer.server", "stop", "-q", "--socket", sock], env=senv, cwd=ROOT)
             os.rmdir(sock_dir) if os.path.isdir(sock_dir) and not os.listdir(sock_dir) else None
         if args.first:
-            def first():
+            def first(**more):
                 with tempfile.TemporaryDirectory() as cache:
-                    return _wall(base, dict(env, NUMBA_CACHE_DIR=cache))
-            runs = [first() for _ in range(args.first_repeat)]
+                    return _wall(base, dict(env, NUMBA_CACHE_DIR=cache, **more))
+            env.pop("SPLICER_NO_WARMUP", None)
+            runs, one = [], []
+            for _ in range(args.first_repeat):  # interleaved: the machine's speed drifts
+                runs.append(first())
+                one.append(first(SPLICER_NO_WARMUP="1"))
             rows["first run"] = min(w for w, _ in runs), min(c for _, c in runs)
+            rows["first run, one process (SPLICER_NO_WARMUP=1)"] = min(w for w, _ in one), min(c for _, c in one)
     print(f"| what | wall s (min of {args.repeat}) | CPU s (min) |\n|---|---|---|")
     for k, (w, c) in rows.items():
         print(f"| {k} | {w:.3f} | {c:.3f} |")

@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.37.0"
+__version__ = "0.38.0"
 
 from .errors import (BandError, BVHError, ConstraintError, RoleError, SplicerError,  # noqa: E402
                      SplicerWarning, TrajectoryError)

@@ -342,7 +342,9 @@ def main(argv=None) -> int:
     old_handlers = _install_handlers()
     old_hook, sys.unraisablehook = sys.unraisablehook, _quiet_unraisable(sys.unraisablehook)
     tx = Transaction()
+    helper = None
     try:
+        from . import _warmup
         from .io.atomic import _signals_held
 
         with _signals_held():  # a signal during the imports takes effect after them, not half-way through
@@ -357,6 +359,7 @@ def main(argv=None) -> int:
         t1 = time.perf_counter()
         with _signals_held():  # numba half-initialised by an interrupt can crash the interpreter's exit
             _start_numba_without_scipy()
+            helper = _warmup.start()  # a first run: a second process compiles the kernels from the end
         before = {"numba": time.perf_counter() - t1}
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # warnings are collected into the report and the summary
@@ -414,6 +417,8 @@ def main(argv=None) -> int:
         _forget_caught_interrupt()
         return 128 + int(signum)
     finally:
+        if helper is not None:
+            _warmup.stop(helper)
         for sig, handler in old_handlers.items():
             signal.signal(sig, handler)
         sys.unraisablehook = old_hook

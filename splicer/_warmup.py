@@ -97,9 +97,12 @@ def start():
     output is discarded; it never writes anything but numba's own cache files."""
     if os.environ.get("SPLICER_NO_WARMUP") or os.environ.get("NUMBA_DISABLE_JIT") == "1" or not cold():
         return None
+    # this splicer, not one that the folder the command runs in may hold (``-m`` would look there first)
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    code = f"import sys; sys.path.insert(0, {here!r}); from splicer._warmup import compile_all; compile_all(reverse=True)"
     try:
-        return subprocess.Popen([sys.executable, "-m", "splicer._warmup"], stdin=subprocess.DEVNULL,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, close_fds=True)
+        return subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL, close_fds=True)
     except OSError:
         return None
 
@@ -118,6 +121,3 @@ def stop(proc) -> None:
         except Exception:  # noqa: BLE001
             pass
 
-
-if __name__ == "__main__":  # pragma: no cover - the helper process
-    compile_all(reverse=True)

@@ -127,6 +127,29 @@ print(json.dumps({"started": started, "running": running, "ended": (p.returncode
     assert out["started"] is False
 
 
+def test_the_helper_imports_this_splicer_not_one_in_the_commands_folder(tmp_path):
+    # a user may run `splice` in a folder holding another splicer (a checkout): the helper must compile this
+    # one's kernels; the stand-in here exits with status 3 as soon as it is imported
+    fake = tmp_path / "elsewhere" / "splicer"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise SystemExit(3)\n")
+    code = f"""
+import json, os, time
+from splicer import _warmup
+os.chdir({str(fake.parent)!r})
+p = _warmup.start()
+try:
+    p.wait(timeout=3)
+except Exception:
+    pass
+code = p.poll()
+_warmup.stop(p)
+print(json.dumps({{"exited": code}}))
+"""
+    out = _child(code, tmp_path / "cache")
+    assert out == {"exited": None}  # still compiling this splicer's kernels after 3 s
+
+
 def test_one_cold_kernel_is_enough_to_start_it(tmp_path):
     # the last kernel compiled (the helper's first), the others still cold: cold() says so
     code = """

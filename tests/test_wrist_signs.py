@@ -204,8 +204,8 @@ def test_pass1_reads_the_signs_at_the_body_rate_only(monkeypatch):
     po = P.pass1(body, hands, width=60.0, position_weight=3.0, wrist_signs=True, ends="open")
     assert po.wrist_signs and {(f, w) for f, _, w in seen} == {(10.0, False), (30.0, True)}
     feats = [tuple(real(x, position=True, wrist_signs=True) for x in (body, hands))]
-    want = P.uncovered_penalty(P._arms_sample([P.Arm(body, hands, position_weight=3.0, wrist_signs=True)], feats,
-                                              "window"), P.UNCOVERED_QUANTILE)
+    want = P.uncovered_penalty(P._arm_samples([P.Arm(body, hands, position_weight=3.0, wrist_signs=True)], feats,
+                                              "window")[0], P.UNCOVERED_QUANTILE)
     assert po.uncovered_cost == pytest.approx(want) and po.uncovered_cost != po.located.uncovered_cost
     # without a position weight there is no term to read them: as before
     seen.clear()

@@ -301,26 +301,15 @@ def _arm_samples(arms: list, features: list, theta: str) -> list:
     return [d1_sample(fb, fh, theta=theta, position_weight=a.position_weight) for a, (fb, fh) in zip(arms, features)]
 
 
-def _arms_sample(arms: list, features: list, theta: str) -> np.ndarray:
-    """Pass 1's local cost on :func:`d1_sample`'s pairs: the mean of :func:`_arm_samples`."""
-    return _mean_sample(_arm_samples(arms, features, theta))
-
-
-def _mean_sample(samples: list) -> np.ndarray:
-    """The arms' mean local cost on the sampled pairs, as :func:`_arms_cost` sums and divides."""
-    return sum(samples) / len(samples)
-
-
 def _uncovered_penalties(arms: list, features: list, theta: str, quantile: float, *, each: bool) -> tuple:
     """The open ends' uncovered penalty from these arms' local costs (:func:`uncovered_penalty` of
-    :func:`_arms_sample`), and with ``each`` and several arms each arm's own (``()`` otherwise).
-    Each arm's sample is computed once: the mean's and the arm's own penalty read the same array
-    (one arm's mean is that array itself, bit for bit)."""
+    the mean of :func:`_arm_samples`, summed and divided as :func:`_arms_cost` does), and with
+    ``each`` and several arms each arm's own (``()`` otherwise), from the same samples."""
     samples = _arm_samples(arms, features, theta)
-    u = uncovered_penalty(_mean_sample(samples), quantile)
+    u = uncovered_penalty(sum(samples) / len(samples), quantile)
     if not each or len(arms) < 2:
         return u, ()
-    return u, tuple(uncovered_penalty(_mean_sample([s]), quantile) for s in samples)
+    return u, tuple(uncovered_penalty(s, quantile) for s in samples)
 
 
 def _both_skip_cost(weight: float | None, u: float) -> float | None:
